@@ -1,0 +1,28 @@
+"""manifill: reconstruct a smooth field over a surface or a solid from a few sample values.
+
+The method of Chen & Luo, *Harmonic Functions for Data Reconstruction on 3D
+Manifolds*, with the mesh left as it is. The modules follow the pipeline:
+
+- :mod:`manifill.validate` - the one validation layer (meshes, samples, options)
+- :mod:`manifill.topology` - edges, components, boundary loops, genus, cleaning
+- :mod:`manifill.samples` - sample positions snapped to vertices
+- :mod:`manifill.laplacian` - uniform, cotangent, intrinsic Delaunay and robust weights
+- :mod:`manifill.solvers` - direct, AMG and the paper's averaging iteration
+- :mod:`manifill.harmonic` - the harmonic (Dirichlet) fill, Steps 5-6
+- :mod:`manifill.io` - meshes, samples and fields on disk
+"""
+
+__version__ = "0.1.0"
+
+from .errors import (  # noqa: F401
+    ManifillError,
+    MeshError,
+    OptionError,
+    ReadError,
+    SampleError,
+    SolveError,
+    WriteError,
+)
+from .harmonic import HarmonicSolver, harmonic  # noqa: F401
+from .laplacian import laplacian  # noqa: F401
+from .topology import clean_mesh, mesh_info  # noqa: F401

@@ -1,0 +1,226 @@
+"""Discrete Laplacians of a triangle mesh: uniform, cotangent, intrinsic Delaunay, robust.
+
+All are returned as the symmetric positive semi-definite matrix ``L = D - W`` with
+``(L x)_i = sum_j w_ij (x_i - x_j)``: a function is discretely harmonic at ``i``
+exactly when ``(L x)_i = 0``, i.e. when ``x_i`` is the ``w``-weighted average of its
+neighbours. Constants are in the null space of every one of them.
+
+Which weights when
+------------------
+``uniform``
+    ``w_ij = 1`` on every edge: the paper's "average of the adjacent vertices".
+    Never negative, so the maximum principle always holds; ignores geometry, so it
+    reproduces linear functions only on regular grids.
+``cotan``
+    ``w_ij = (cot a_ij + cot b_ij) / 2``, the angles opposite the edge: the
+    standard finite-element Laplacian, exact for linear functions on any flat
+    mesh. A weight turns negative where the two opposite angles sum to more than
+    pi (obtuse triangles), and the maximum principle can then fail.
+``intrinsic``
+    Cotangent weights of the intrinsic Delaunay triangulation of the same
+    surface (Bobenko-Springborn; computed by the ``robust-laplacian`` package
+    with no mollification). Never negative on a manifold mesh, so the maximum
+    principle holds on any mesh; equal to ``cotan`` where the mesh is already
+    Delaunay. Its sparsity can include flipped edges between vertices that are
+    not neighbours in ``F``.
+``robust``
+    The tufted-cover Laplacian of Sharp and Crane (the ``robust-laplacian``
+    package, default mollification): for non-manifold meshes and near-degenerate
+    triangles.
+"""
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import scipy.sparse as sp
+
+from .validate import as_mesh, bbox_diagonal, check_option
+
+__all__ = ["laplacian", "cotangents", "WEIGHTS"]
+
+WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
+
+
+def _normalised(V):
+    """Positions centred and scaled to unit bounding-box diagonal (conditioning)."""
+    return (V - V.mean(axis=0)) / bbox_diagonal(V)
+
+
+def cotangents(V, F):
+    """Half cotangents of the angles of every triangle.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    F : (m, 3) numpy array of int
+        Triangles.
+
+    Returns
+    -------
+    (m, 3) numpy array
+        Column ``k`` is ``cot(angle at corner k) / 2``: the weight that face
+        gives to the edge opposite corner ``k``. Zero for a zero-area face.
+
+    Examples
+    --------
+    >>> C = cotangents(np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    >>> np.round(C, 12).tolist()
+    [[0.0, 0.5, 0.5]]
+    """
+    x, y, z = (np.ascontiguousarray(V[:, k]) for k in range(3))
+    i0, i1, i2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
+    # edge vectors opposite each corner: e0 = v2 - v1, e1 = v0 - v2, e2 = v1 - v0
+    ex = [x[i2] - x[i1], x[i0] - x[i2], x[i1] - x[i0]]
+    ey = [y[i2] - y[i1], y[i0] - y[i2], y[i1] - y[i0]]
+    ez = [z[i2] - z[i1], z[i0] - z[i2], z[i1] - z[i0]]
+    cx = ey[0] * ez[1] - ez[0] * ey[1]
+    cy = ez[0] * ex[1] - ex[0] * ez[1]
+    cz = ex[0] * ey[1] - ey[0] * ex[1]
+    dbl = np.sqrt(cx * cx + cy * cy + cz * cz)
+    inv = np.divide(0.5, dbl, out=np.zeros_like(dbl), where=dbl > 0)
+    C = np.empty((len(F), 3))
+    for k in range(3):
+        a, b = (k + 1) % 3, (k + 2) % 3
+        # angle at corner k lies between edges -e_b (towards b's far end) and e_a
+        C[:, k] = -(ex[a] * ex[b] + ey[a] * ey[b] + ez[a] * ez[b]) * inv
+    return C
+
+
+def _edge_weights(V, F, n, weights):
+    """Off-diagonal weight matrix ``W`` of the faces ``F`` (CSR, duplicates summed)."""
+    if n < 2**31 - 1:
+        F = F.astype(np.int32)  # halves the memory traffic of the assembly and of every product
+    C = np.ones((len(F), 3)) if weights == "uniform" else cotangents(V, F)
+    i0, i1, i2 = F[:, 0], F[:, 1], F[:, 2]
+    rows = np.concatenate([i1, i2, i2, i0, i0, i1])
+    cols = np.concatenate([i2, i1, i0, i2, i1, i0])
+    w = np.concatenate([C[:, 0], C[:, 0], C[:, 1], C[:, 1], C[:, 2], C[:, 2]])
+    if (F[:, 0] == F[:, 1]).any() or (F[:, 1] == F[:, 2]).any() or (F[:, 2] == F[:, 0]).any():
+        keep = rows != cols  # a face with a repeated vertex has no edge there
+        rows, cols, w = rows[keep], cols[keep], w[keep]
+    W = sp.csr_array((w, (rows, cols)), shape=(n, n))
+    W.sum_duplicates()
+    return W
+
+
+#: Faces per thread below which the assembly runs on one thread.
+_CHUNK = 200_000
+
+
+def _assemble(V, F, n, weights):
+    """``D - W`` for ``uniform`` or ``cotan`` weights, assembled on up to 4 threads.
+
+    The scatter of 6 entries per face into CSR is memory-bound and SciPy releases
+    the GIL there, so independent chunks of faces assemble in parallel; their sum
+    is one linear merge.
+    """
+    k = int(min(os.cpu_count() or 1, 4, max(1, len(F) // _CHUNK)))
+    if k == 1:
+        W = _edge_weights(V, F, n, weights)
+    else:
+        parts = np.array_split(np.arange(len(F)), k)
+        with ThreadPoolExecutor(k) as pool:
+            Ws = list(pool.map(lambda p: _edge_weights(V, F[p], n, weights), parts))
+        W = Ws[0]
+        for other in Ws[1:]:
+            W = W + other
+        W.sum_duplicates()
+    if weights == "uniform":
+        W.data[:] = 1.0  # every edge counts once, however many faces share it
+    d = np.asarray(W.sum(axis=1)).ravel()
+    return _d_minus_w(W, d)
+
+
+def _d_minus_w(W, d):
+    """``diag(d) - W`` for a CSR ``W`` with sorted indices and no stored diagonal."""
+    n = W.shape[0]
+    counts = np.diff(W.indptr)
+    indptr = np.concatenate([[0], np.cumsum(counts + 1)]).astype(W.indptr.dtype)
+    rows = np.repeat(np.arange(n, dtype=W.indices.dtype), counts)
+    # position of the diagonal entry in each row: after the entries with col < row
+    before = np.bincount(rows[W.indices < rows], minlength=n)
+    diag_pos = indptr[:-1] + before
+    is_diag = np.zeros(indptr[-1], dtype=bool)
+    is_diag[diag_pos] = True
+    indices = np.empty(indptr[-1], dtype=W.indices.dtype)
+    data = np.empty(indptr[-1])
+    indices[~is_diag] = W.indices
+    data[~is_diag] = -W.data
+    indices[diag_pos] = np.arange(n, dtype=indices.dtype)
+    data[diag_pos] = d
+    L = sp.csr_array((data, indices, indptr), shape=W.shape)
+    L.has_sorted_indices = True
+    return L
+
+
+def _robust(V, F, mollify):
+    try:
+        import robust_laplacian
+    except ImportError:
+        raise ImportError(
+            "weights='intrinsic' and 'robust' need the robust-laplacian package: "
+            "pip install 'manifill[robust]'"
+        ) from None
+    L, _ = robust_laplacian.mesh_laplacian(np.ascontiguousarray(V), np.ascontiguousarray(F), mollify_factor=mollify)
+    L = sp.csr_array(L)
+    L.sum_duplicates()
+    L.sort_indices()
+    return L
+
+
+def laplacian(V, F, *, weights="cotan"):
+    """Symmetric positive semi-definite Laplacian ``L = D - W`` of a triangle mesh.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles, any integer dtype.
+    weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
+        Edge weights; see the module docstring for which one when.
+
+    Returns
+    -------
+    (n, n) scipy.sparse.csr_array
+        ``L`` with sorted indices. For ``uniform`` and ``cotan`` its sparsity is
+        exactly the mesh graph plus the diagonal (zero weights stay stored), so
+        the connected components of its pattern are those of the mesh.
+
+    Raises
+    ------
+    MeshError
+        If ``(V, F)`` is malformed (see :func:`manifill.validate.as_mesh`).
+    OptionError
+        If ``weights`` is not one of the names above.
+
+    See Also
+    --------
+    manifill.harmonic : solves ``L x = 0`` with fixed values.
+
+    Notes
+    -----
+    Positions are centred and scaled to a unit bounding-box diagonal before the
+    weights are computed, so the result does not depend on units or on a far
+    origin (cotangent weights are scale-invariant anyway).
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]])
+    >>> L = laplacian(V, np.array([[0, 1, 2]]), weights="uniform")
+    >>> L.toarray().tolist()
+    [[2.0, -1.0, -1.0], [-1.0, 2.0, -1.0], [-1.0, -1.0, 2.0]]
+    """
+    check_option("weights", weights, WEIGHTS)
+    V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"), allow_unreferenced=True)
+    return _laplacian(V, F, weights)
+
+
+def _laplacian(V, F, weights):
+    """:func:`laplacian` on arrays that have passed :func:`~manifill.validate.as_mesh`."""
+    n = len(V)
+    if weights in ("intrinsic", "robust"):
+        return _robust(_normalised(V), F, 0.0 if weights == "intrinsic" else 1e-5)
+    return _assemble(_normalised(V), F, n, weights)

@@ -1,0 +1,100 @@
+"""Meshes built in code: icospheres and flat grids, for examples, tests and benchmarks."""
+
+import numpy as np
+
+__all__ = ["icosphere", "grid"]
+
+
+def icosphere(k=3, *, radius=1.0):
+    """Unit icosphere: an icosahedron subdivided ``k`` times, projected to the sphere.
+
+    Parameters
+    ----------
+    k : int, optional
+        Number of 1-to-4 subdivisions; the mesh has ``10 * 4**k + 2`` vertices
+        (``k = 6``: 40,962; ``k = 8``: 655,362).
+    radius : float, optional
+        Sphere radius.
+
+    Returns
+    -------
+    V : (n, 3) float64 numpy array
+    F : (m, 3) int64 numpy array
+        Triangles, outward oriented.
+
+    Examples
+    --------
+    >>> V, F = icosphere(1)
+    >>> V.shape, F.shape
+    ((42, 3), (80, 3))
+    """
+    t = (1 + 5**0.5) / 2
+    V = np.array(
+        [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
+         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]],
+        dtype=np.float64,
+    )
+    F = np.array(
+        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]],
+        dtype=np.int64,
+    )
+    V /= np.linalg.norm(V, axis=1)[:, None]
+    for _ in range(int(k)):
+        n, m = len(V), len(F)
+        half = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+        half.sort(axis=1)
+        uniq, inv = np.unique(half[:, 0] * n + half[:, 1], return_inverse=True)
+        a, b = uniq // n, uniq % n
+        mid = V[a] + V[b]
+        mid /= np.linalg.norm(mid, axis=1)[:, None]
+        V = np.vstack([V, mid])
+        e01, e12, e20 = (n + inv[j * m:(j + 1) * m] for j in range(3))
+        F = np.vstack([
+            np.column_stack([F[:, 0], e01, e20]),
+            np.column_stack([F[:, 1], e12, e01]),
+            np.column_stack([F[:, 2], e20, e12]),
+            np.column_stack([e01, e12, e20]),
+        ])
+    return V * radius, F
+
+
+def grid(n=10, m=None, *, size=(1.0, 1.0), diagonal="alternate"):
+    """Flat triangulated rectangle ``[0, sx] x [0, sy]`` in the plane ``z = 0``.
+
+    Parameters
+    ----------
+    n, m : int, optional
+        Vertices along x and y (``m`` defaults to ``n``); at least 2.
+    size : (2,) tuple of float, optional
+        Side lengths.
+    diagonal : {'alternate', 'right'}, optional
+        ``'right'`` splits every square along the same diagonal (a regular,
+        translation-invariant grid: uniform weights reproduce linear functions);
+        ``'alternate'`` alternates the diagonal (a "union jack" pattern).
+
+    Returns
+    -------
+    V : (n*m, 3) float64 numpy array
+    F : (2*(n-1)*(m-1), 3) int64 numpy array
+
+    Examples
+    --------
+    >>> V, F = grid(3)
+    >>> V.shape, F.shape
+    ((9, 3), (8, 3))
+    """
+    m = n if m is None else m
+    xs = np.linspace(0.0, size[0], n)
+    ys = np.linspace(0.0, size[1], m)
+    X, Y = np.meshgrid(xs, ys, indexing="xy")
+    V = np.column_stack([X.ravel(), Y.ravel(), np.zeros(n * m)])
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(m - 1), indexing="xy")
+    i, j = i.ravel(), j.ravel()
+    a = j * n + i
+    b, c, d = a + 1, a + n, a + n + 1
+    flip = ((i + j) % 2 == 1) if diagonal == "alternate" else np.zeros(a.size, bool)
+    F1 = np.where(flip[:, None], np.column_stack([a, b, c]), np.column_stack([a, b, d]))
+    F2 = np.where(flip[:, None], np.column_stack([b, d, c]), np.column_stack([a, d, c]))
+    return V, np.vstack([F1, F2]).astype(np.int64)

@@ -1,0 +1,279 @@
+"""Combinatorics of a triangle mesh: edges, adjacency, components, boundary loops, genus.
+
+Everything here depends only on the faces ``F`` (and the vertex count), never on
+positions, so it can be checked exactly.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from .validate import as_mesh, bbox_diagonal, double_areas
+
+__all__ = [
+    "edges",
+    "adjacency",
+    "connected_components",
+    "boundary_loops",
+    "mesh_info",
+    "clean_mesh",
+]
+
+
+def edges(F):
+    """Unique undirected edges of a triangle mesh and how many faces use each.
+
+    Parameters
+    ----------
+    F : (m, 3) numpy array of int
+        Triangles.
+
+    Returns
+    -------
+    E : (e, 2) int64 numpy array
+        Edges ``(i, j)`` with ``i < j``, sorted.
+    count : (e,) int64 numpy array
+        Number of faces on each edge: 1 on the boundary, 2 inside a manifold
+        surface, more on a non-manifold edge.
+
+    Examples
+    --------
+    >>> E, count = edges(np.array([[0, 1, 2], [2, 1, 3]]))
+    >>> E.tolist(), count.tolist()
+    ([[0, 1], [0, 2], [1, 2], [1, 3], [2, 3]], [1, 1, 2, 1, 1])
+    """
+    F = np.asarray(F, dtype=np.int64)
+    half = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    half.sort(axis=1)
+    n = int(F.max()) + 1 if F.size else 0
+    key = half[:, 0] * n + half[:, 1]
+    uniq, count = np.unique(key, return_counts=True)
+    return np.column_stack([uniq // n, uniq % n]) if n else np.empty((0, 2), np.int64), count
+
+
+def adjacency(F, n):
+    """Vertex adjacency matrix of a triangle mesh.
+
+    Parameters
+    ----------
+    F : (m, 3) numpy array of int
+        Triangles.
+    n : int
+        Number of vertices.
+
+    Returns
+    -------
+    (n, n) scipy.sparse.csr_array
+        Symmetric 0/1 matrix, 1 where two vertices share an edge.
+    """
+    F = np.asarray(F, dtype=np.int64)
+    r = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
+    c = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
+    A = sp.csr_array((np.ones(2 * r.size), (np.concatenate([r, c]), np.concatenate([c, r]))), shape=(n, n))
+    A.sum_duplicates()
+    A.data[:] = 1.0
+    return A
+
+
+def connected_components(F, n):
+    """Connected components of the mesh graph.
+
+    Parameters
+    ----------
+    F : (m, 3) numpy array of int
+        Triangles.
+    n : int
+        Number of vertices.
+
+    Returns
+    -------
+    count : int
+        Number of components.
+    labels : (n,) int numpy array
+        Component of each vertex; components are numbered by decreasing size.
+    """
+    count, labels = csgraph.connected_components(adjacency(F, n), directed=False)
+    return count, _relabel_by_size(labels, count)
+
+
+def _relabel_by_size(labels, count):
+    sizes = np.bincount(labels, minlength=count)
+    order = np.argsort(-sizes, kind="stable")
+    rank = np.empty(count, dtype=np.int64)
+    rank[order] = np.arange(count)
+    return rank[labels]
+
+
+def boundary_loops(F):
+    """Closed loops of boundary edges (edges used by exactly one face).
+
+    Parameters
+    ----------
+    F : (m, 3) numpy array of int
+        Triangles, consistently oriented or not.
+
+    Returns
+    -------
+    list of (k,) int64 numpy arrays
+        Each loop as its vertex sequence (the first vertex is not repeated),
+        longest loop first. Where boundary edges meet at a vertex used more than
+        twice (a pinched boundary) the loops are split there.
+
+    Examples
+    --------
+    >>> [loop.tolist() for loop in boundary_loops(np.array([[0, 1, 2], [0, 2, 3]]))]
+    [[0, 1, 2, 3]]
+    """
+    E, count = edges(F)
+    B = E[count == 1]
+    if len(B) == 0:
+        return []
+    nbrs = {}
+    for i, j in B.tolist():
+        nbrs.setdefault(i, []).append(j)
+        nbrs.setdefault(j, []).append(i)
+    unused = {(min(i, j), max(i, j)) for i, j in B.tolist()}
+    loops = []
+    for i, j in B.tolist():
+        if (i, j) not in unused:
+            continue
+        unused.discard((i, j))
+        loop = [i, j]
+        while True:
+            cur = loop[-1]
+            nxt = None
+            for k in nbrs[cur]:
+                if (min(cur, k), max(cur, k)) in unused:
+                    nxt = k
+                    break
+            if nxt is None:
+                break
+            unused.discard((min(cur, nxt), max(cur, nxt)))
+            if nxt == loop[0]:
+                break
+            loop.append(nxt)
+        loops.append(np.array(loop, dtype=np.int64))
+    loops.sort(key=len, reverse=True)
+    return loops
+
+
+def mesh_info(V, F):
+    """Counts, components, boundary loops, non-manifold edges and genus of a mesh.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles.
+
+    Returns
+    -------
+    dict
+        ``vertices``, ``faces``, ``edges``, ``bbox_min``, ``bbox_max``,
+        ``diagonal``, ``unreferenced_vertices``, ``nonmanifold_edges`` (count),
+        ``boundary_loops`` (count) and ``components``: a list with, per component
+        (largest first), its ``vertices``, ``faces``, ``boundary_loops``,
+        ``euler`` characteristic, whether it is ``closed`` and, for a closed
+        orientable-looking component, its ``genus`` ``(2 - euler) / 2``.
+
+    Raises
+    ------
+    MeshError
+        If the arrays are malformed (see :func:`manifill.validate.as_mesh`).
+        Unreferenced vertices, zero-area faces and duplicates are reported, not
+        raised.
+    """
+    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    n = len(V)
+    E, count = edges(F)
+    loops = boundary_loops(F)
+    used = np.zeros(n, dtype=bool)
+    used[F.ravel()] = True
+    ncomp, labels = connected_components(F, n)
+    face_comp = labels[F[:, 0]]
+    edge_comp = labels[E[:, 0]]
+    loop_comp = np.array([labels[loop[0]] for loop in loops], dtype=np.int64)
+    comps = []
+    for c in range(ncomp):
+        nv = int(np.count_nonzero(labels == c))
+        if nv == 1 and not used[labels == c].any():
+            continue
+        nf = int(np.count_nonzero(face_comp == c))
+        ne = int(np.count_nonzero(edge_comp == c))
+        nl = int(np.count_nonzero(loop_comp == c))
+        chi = nv - ne + nf
+        entry = {"vertices": nv, "faces": nf, "boundary_loops": nl, "euler": chi, "closed": nl == 0}
+        if nl == 0 and chi % 2 == 0:
+            entry["genus"] = (2 - chi) // 2
+        comps.append(entry)
+    return {
+        "vertices": n,
+        "faces": len(F),
+        "edges": len(E),
+        "bbox_min": V.min(axis=0).tolist(),
+        "bbox_max": V.max(axis=0).tolist(),
+        "diagonal": bbox_diagonal(V),
+        "unreferenced_vertices": int(np.count_nonzero(~used)),
+        "nonmanifold_edges": int(np.count_nonzero(count > 2)),
+        "boundary_loops": len(loops),
+        "components": comps,
+    }
+
+
+def clean_mesh(V, F, *, tol=None):
+    """Weld coinciding vertices, drop unused vertices and zero-area faces.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles.
+    tol : float, optional
+        Relative weld distance (times the bounding-box diagonal); defaults to
+        ``TOL.weld``.
+
+    Returns
+    -------
+    V : (n', 3) float64 numpy array
+        Kept vertices, in their original order.
+    F : (m', 3) int64 numpy array
+        Faces on the new numbering, degenerate ones removed.
+    vmap : (n,) int64 numpy array
+        New index of every old vertex, ``-1`` for a dropped one: use it to
+        renumber sample indices, ``vmap[idx]``.
+
+    Examples
+    --------
+    >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0], [5, 5, 5]]
+    >>> V2, F2, vmap = clean_mesh(V, [[0, 1, 2], [3, 4, 2]])
+    >>> len(V2), F2.tolist(), vmap.tolist()
+    (4, [[0, 1, 2], [1, 3, 2]], [0, 1, 2, 1, 3, -1])
+    """
+    from .validate import duplicate_vertex_pairs
+
+    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    n = len(V)
+    pairs = duplicate_vertex_pairs(V, tol)
+    rep = np.arange(n)
+    if len(pairs):
+        G = sp.csr_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, lab = csgraph.connected_components(G, directed=False)
+        first = np.full(lab.max() + 1, n, dtype=np.int64)
+        np.minimum.at(first, lab, np.arange(n))
+        rep = first[lab]
+    F = rep[F]
+    keep_face = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
+    F = F[keep_face]
+    if len(F):
+        from .tolerances import TOL
+
+        diag = bbox_diagonal(V)
+        F = F[double_areas(V, F) > 2 * TOL.degenerate_area * diag * diag]
+    used = np.zeros(n, dtype=bool)
+    used[F.ravel()] = True
+    newidx = np.full(n, -1, dtype=np.int64)
+    newidx[used] = np.arange(int(used.sum()))
+    vmap = newidx[rep]
+    return V[used], newidx[F], vmap

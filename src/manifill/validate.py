@@ -1,0 +1,410 @@
+"""The one validation layer: every array that enters manifill passes through here.
+
+Each function converts dtypes, checks shapes, index ranges (both ends), finiteness
+and duplicates, and raises one of manifill's errors whose one-line message names the
+bad thing and the fix. Core functions call these and then trust their arrays.
+"""
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .errors import MeshError, OptionError, SampleError
+from .tolerances import TOL
+
+__all__ = ["as_mesh", "as_indices", "as_values", "as_samples", "check_option", "bbox_diagonal", "double_areas", "duplicate_vertex_pairs"]
+
+
+def _first(idx, k=5):
+    """Format the first ``k`` entries of an index list for a message."""
+    idx = np.asarray(idx).ravel()
+    head = ", ".join(str(int(i)) for i in idx[:k])
+    return head + (", ..." if idx.size > k else "")
+
+
+def check_option(name, value, allowed):
+    """Check that a keyword option is one of a closed set of strings.
+
+    Parameters
+    ----------
+    name : str
+        The option's name, for the message.
+    value : object
+        The value given.
+    allowed : sequence of str
+        The allowed values.
+
+    Returns
+    -------
+    str
+        ``value``, unchanged.
+
+    Raises
+    ------
+    OptionError
+        If ``value`` is not in ``allowed``.
+
+    Examples
+    --------
+    >>> check_option("weights", "cotan", ("uniform", "cotan"))
+    'cotan'
+    """
+    if not isinstance(value, str) or value not in allowed:
+        raise OptionError(
+            f"{name}={value!r} is not one of {', '.join(repr(a) for a in allowed)}; "
+            f"pass one of those"
+        )
+    return value
+
+
+def bbox_diagonal(V):
+    """Length of the diagonal of the axis-aligned bounding box of ``V``.
+
+    Parameters
+    ----------
+    V : (n, d) numpy array
+        Points.
+
+    Returns
+    -------
+    float
+        The diagonal length; 1.0 if ``V`` is empty or all points coincide.
+    """
+    if len(V) == 0:
+        return 1.0
+    d = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    return d if d > 0 else 1.0
+
+
+def _as_vertices(V):
+    try:
+        V = np.asarray(V, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise MeshError(f"V could not be read as numbers ({exc}); pass an (n, 3) float array") from None
+    if V.ndim != 2 or V.shape[1] not in (2, 3):
+        raise MeshError(f"V has shape {V.shape}; pass an (n, 3) array of vertex positions (or (n, 2) for a flat mesh)")
+    if V.shape[0] == 0:
+        raise MeshError("V is empty; pass at least one triangle's vertices")
+    bad = ~np.isfinite(V).all(axis=1)
+    if bad.any():
+        raise MeshError(
+            f"{int(bad.sum())} vertices have NaN or infinite coordinates (rows {_first(np.flatnonzero(bad))}); "
+            f"remove or fix them"
+        )
+    if V.shape[1] == 2:
+        V = np.column_stack([V, np.zeros(len(V))])
+    return np.ascontiguousarray(V)
+
+
+def _as_faces(F, n, width=3, what="F", kind="triangles"):
+    F = np.asarray(F)
+    if F.ndim != 2 or F.shape[1] != width:
+        raise MeshError(f"{what} has shape {F.shape}; pass an (m, {width}) integer array of {kind}")
+    if F.shape[0] == 0:
+        raise MeshError(f"{what} is empty; pass at least one of the {kind}")
+    if not np.issubdtype(F.dtype, np.integer):
+        if np.issubdtype(F.dtype, np.floating) and np.all(np.isfinite(F)) and np.all(F == np.round(F)):
+            F = F.astype(np.int64)
+        else:
+            raise MeshError(f"{what} has dtype {F.dtype}; pass vertex indices as integers")
+    F = F.astype(np.int64, copy=False)
+    lo, hi = int(F.min()), int(F.max())
+    if lo < 0 or hi >= n:
+        bad = np.flatnonzero(((F < 0) | (F >= n)).any(axis=1))
+        raise MeshError(
+            f"{what} refers to vertex {lo if lo < 0 else hi}, outside 0..{n - 1} (rows {_first(bad)}); "
+            f"indices must be 0-based and below the number of vertices"
+        )
+    return np.ascontiguousarray(F)
+
+
+def double_areas(V, F):
+    """Twice the area of every triangle.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    F : (m, 3) numpy array of int
+        Triangles.
+
+    Returns
+    -------
+    (m,) numpy array
+    """
+    a, b, c = (np.ascontiguousarray(F[:, k]) for k in range(3))
+    cols = [np.ascontiguousarray(V[:, k]) for k in range(3)]
+    u = [x[b] - x[a] for x in cols]
+    v = [x[c] - x[a] for x in cols]
+    cx = u[1] * v[2] - u[2] * v[1]
+    cy = u[2] * v[0] - u[0] * v[2]
+    cz = u[0] * v[1] - u[1] * v[0]
+    return np.sqrt(cx * cx + cy * cy + cz * cz)
+
+
+def duplicate_vertex_pairs(V, tol=None):
+    """Pairs of vertices that coincide up to ``tol * diag``.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    tol : float, optional
+        Relative distance; defaults to ``TOL.weld``.
+
+    Returns
+    -------
+    (k, 2) numpy array
+        Index pairs ``i < j`` of coinciding vertices.
+    """
+    tol = TOL.weld if tol is None else tol
+    eps = tol * bbox_diagonal(V)
+    # Coinciding points have nearly equal projections on any direction: only the
+    # runs of nearly equal projections need a closer look.
+    direction = np.array([0.5773502691896258, 0.6030226891555273, 0.5504818825631803])
+    proj = V @ direction
+    order = np.argsort(proj, kind="stable")
+    close = np.diff(proj[order]) <= eps * 1.0000001
+    if not close.any():
+        return np.empty((0, 2), dtype=np.int64)
+    cand = np.unique(np.concatenate([order[:-1][close], order[1:][close]]))
+    pairs = cKDTree(V[cand]).query_pairs(eps, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    pairs = np.sort(cand[pairs], axis=1)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unwelded=False):
+    """Validate a triangle mesh and return it as clean arrays.
+
+    Parameters
+    ----------
+    V : (n, 3) or (n, 2) array_like
+        Vertex positions; a flat ``(n, 2)`` mesh gets ``z = 0``.
+    F : (m, 3) array_like of int
+        Triangles as 0-based vertex indices, any integer dtype.
+    allow_degenerate : bool, optional
+        Accept faces of zero area (harmless for uniform and robust weights).
+    allow_unreferenced : bool, optional
+        Accept vertices used by no face.
+    allow_unwelded : bool, optional
+        Accept coinciding vertices.
+
+    Returns
+    -------
+    V : (n, 3) float64 numpy array
+    F : (m, 3) int64 numpy array
+
+    Raises
+    ------
+    MeshError
+        Wrong shapes or dtypes, indices outside ``0..n-1``, NaN or infinite
+        coordinates, zero-area faces, vertices used by no face, or coinciding
+        vertices that leave the mesh unwelded. Each message names the fix.
+
+    See Also
+    --------
+    manifill.clean_mesh : welds duplicates and drops unreferenced vertices.
+
+    Examples
+    --------
+    >>> V, F = as_mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]])
+    >>> V.shape, F.dtype
+    ((3, 3), dtype('int64'))
+    """
+    V = _as_vertices(V)
+    n = len(V)
+    F = _as_faces(F, n)
+    used = np.zeros(n, dtype=bool)
+    used[F.ravel()] = True
+    if not allow_unreferenced and not used.all():
+        unused = np.flatnonzero(~used)
+        raise MeshError(
+            f"{unused.size} vertices are used by no face (vertices {_first(unused)}); "
+            f"remove them with manifill.clean_mesh (CLI: --clean)"
+        )
+    if not allow_degenerate:
+        diag = bbox_diagonal(V)
+        bad = np.flatnonzero(double_areas(V, F) <= 2 * TOL.degenerate_area * diag * diag)
+        if bad.size:
+            raise MeshError(
+                f"{bad.size} faces have zero area (faces {_first(bad)}); remove them "
+                f"(manifill.clean_mesh, CLI: --clean) or use weights='uniform' or 'robust', which tolerate them"
+            )
+    dup = np.empty((0, 2), np.int64) if allow_unwelded else duplicate_vertex_pairs(V)
+    if len(dup):
+        both = used[dup[:, 0]] & used[dup[:, 1]]
+        dup = dup[both]
+        if len(dup):
+            i, j = dup[0]
+            raise MeshError(
+                f"{len(dup)} pairs of vertices coincide (first: {i} and {j}), so the mesh is not welded "
+                f"and falls apart into pieces; merge them with manifill.clean_mesh (CLI: --clean)"
+            )
+    return V, F
+
+
+def as_indices(b, n, *, what="b", unique=True):
+    """Validate vertex indices.
+
+    Parameters
+    ----------
+    b : (k,) array_like of int
+        0-based vertex indices, any integer dtype (integral floats are accepted).
+    n : int
+        Number of vertices of the mesh.
+    what : str, optional
+        The argument's name, for the messages.
+    unique : bool, optional
+        Reject an index listed twice.
+
+    Returns
+    -------
+    (k,) int64 numpy array
+        The indices, in the given order.
+
+    Raises
+    ------
+    SampleError
+        Not 1-D, empty, not integers, outside ``0..n-1`` or (with ``unique``)
+        listed twice.
+
+    Examples
+    --------
+    >>> as_indices([3.0, 1], 5).tolist()
+    [3, 1]
+    """
+    b = np.asarray(b)
+    if b.ndim != 1:
+        raise SampleError(f"{what} has shape {b.shape}; pass a 1-D array of vertex indices")
+    if b.size == 0:
+        raise SampleError(f"{what} is empty; fix at least one vertex")
+    if not np.issubdtype(b.dtype, np.integer):
+        if np.issubdtype(b.dtype, np.floating) and np.all(np.isfinite(b)) and np.all(b == np.round(b)):
+            b = b.astype(np.int64)
+        else:
+            raise SampleError(f"{what} has dtype {b.dtype}; pass vertex indices as integers")
+    b = b.astype(np.int64, copy=False)
+    lo, hi = int(b.min()), int(b.max())
+    if lo < 0 or hi >= n:
+        bad = np.flatnonzero((b < 0) | (b >= n))
+        raise SampleError(
+            f"{what} holds vertex {lo if lo < 0 else hi}, outside 0..{n - 1} (entries {_first(bad)}); "
+            f"indices must be 0-based and below the number of vertices"
+        )
+    if unique:
+        srt = np.sort(b)
+        rep = srt[1:][srt[1:] == srt[:-1]]
+        if rep.size:
+            raise SampleError(
+                f"{what} lists vertex {int(rep[0])} more than once ({np.unique(rep).size} repeated vertices); "
+                f"list each vertex once"
+            )
+    return b
+
+
+def as_values(bc, k, *, what="bc"):
+    """Validate the values at ``k`` vertices: ``(k,)`` or ``(k, p)`` finite floats.
+
+    Parameters
+    ----------
+    bc : (k,) or (k, p) array_like of float
+        One value, or one row of ``p`` values, per vertex.
+    k : int
+        Number of vertices the values belong to.
+    what : str, optional
+        The argument's name, for the messages.
+
+    Returns
+    -------
+    bc : (k, p) float64 numpy array
+        Always two-dimensional.
+    squeeze : bool
+        True if ``bc`` was one-dimensional.
+
+    Raises
+    ------
+    SampleError
+        Wrong shape, non-numeric, NaN or infinite values (the rows are named).
+
+    Examples
+    --------
+    >>> bc, squeeze = as_values([1, 2], 2)
+    >>> bc.shape, squeeze
+    ((2, 1), True)
+    """
+    try:
+        bc = np.asarray(bc, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SampleError(f"{what} could not be read as numbers; pass a (k,) or (k, p) float array") from None
+    squeeze = bc.ndim == 1
+    if squeeze:
+        bc = bc[:, None]
+    if bc.ndim != 2 or bc.shape[0] != k:
+        raise SampleError(f"{what} has shape {bc.shape} for {k} vertices; pass one value (or one row) per vertex")
+    if bc.shape[1] == 0:
+        raise SampleError(f"{what} has no columns; pass at least one field")
+    bad = ~np.isfinite(bc).all(axis=1)
+    if bad.any():
+        raise SampleError(f"{what} has NaN or infinite values in rows {_first(np.flatnonzero(bad))}; remove those samples")
+    return np.ascontiguousarray(bc), squeeze
+
+
+def as_samples(idx, vals, n, *, duplicates="error"):
+    """Validate samples ``(idx, vals)``, merging repeated vertices.
+
+    Parameters
+    ----------
+    idx : (k,) array_like of int
+        Vertex of each sample, 0-based, any integer dtype.
+    vals : (k,) or (k, p) array_like of float
+        Value(s) of each sample: one column per field.
+    n : int
+        Number of vertices of the mesh.
+    duplicates : {'error', 'mean'}, optional
+        What to do when a vertex carries two different values: raise, or
+        average them. Repeats with equal values are merged silently.
+
+    Returns
+    -------
+    idx : (k',) int64 numpy array
+        Sorted unique vertex indices.
+    vals : (k', p) float64 numpy array
+        Their values, always two-dimensional.
+    squeeze : bool
+        True if ``vals`` was one-dimensional.
+
+    Raises
+    ------
+    SampleError
+        Wrong shapes, indices outside ``0..n-1``, NaN or infinite values, or one
+        vertex with two different values (listed, with the fix).
+
+    Examples
+    --------
+    >>> idx, vals, squeeze = as_samples([2, 0, 2], [1.0, 3.0, 1.0], 4)
+    >>> idx.tolist(), vals.ravel().tolist(), squeeze
+    ([0, 2], [3.0, 1.0], True)
+    """
+    check_option("duplicates", duplicates, ("error", "mean"))
+    idx = as_indices(idx, n, what="idx", unique=False)
+    vals, squeeze = as_values(vals, idx.size, what="vals")
+    uniq, inv, counts = np.unique(idx, return_inverse=True, return_counts=True)
+    if uniq.size == idx.size:
+        order = np.argsort(idx)
+        return idx[order], np.ascontiguousarray(vals[order]), squeeze
+    sums = np.zeros((uniq.size, vals.shape[1]))
+    np.add.at(sums, inv, vals)
+    mean = sums / counts[:, None]
+    spread = np.abs(vals - mean[inv]).max(axis=1)
+    conflict = spread > 1e-12 * max(1.0, float(np.abs(vals).max()))
+    if conflict.any() and duplicates == "error":
+        v = int(idx[np.flatnonzero(conflict)[0]])
+        rows = np.flatnonzero(idx == v)
+        shown = ", ".join(f"{vals[r, 0]:g}" for r in rows[:4])
+        nv = np.unique(idx[conflict]).size
+        raise SampleError(
+            f"{nv} vertices get two different values (vertex {v}: rows {_first(rows)} = {shown}); "
+            f"remove the conflicting samples, or average them (duplicates='mean', CLI: --duplicates mean)"
+        )
+    return uniq, mean, squeeze

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["icosphere", "grid"]
+__all__ = ["icosphere", "grid", "great_circle_vertices"]
 
 
 def icosphere(k=3, *, radius=1.0):
@@ -98,3 +98,43 @@ def grid(n=10, m=None, *, size=(1.0, 1.0), diagonal="alternate"):
     F1 = np.where(flip[:, None], np.column_stack([a, b, c]), np.column_stack([a, b, d]))
     F2 = np.where(flip[:, None], np.column_stack([b, d, c]), np.column_stack([a, d, c]))
     return V, np.vstack([F1, F2]).astype(np.int64)
+
+
+def great_circle_vertices(V, F, axes=(0, 1, 2)):
+    """Vertices along the great circles where a sphere meets the planes ``x_axis = 0``.
+
+    For each axis, every edge that crosses the plane contributes its endpoint on
+    the non-negative side; the result is a closed, connected band one vertex wide
+    that cuts a sphere like the curve network of the paper's partition (three
+    axes: eight patches).
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions (centred at the origin).
+    F : (m, 3) numpy array of int
+        Triangles.
+    axes : sequence of int, optional
+        Which coordinate planes.
+
+    Returns
+    -------
+    (k,) int64 numpy array
+        Sorted vertex indices.
+
+    Examples
+    --------
+    >>> V, F = icosphere(3)
+    >>> b = great_circle_vertices(V, F)
+    >>> bool(0 < b.size < len(V) // 4)
+    True
+    """
+    from .topology import adjacency
+
+    A = adjacency(F, len(V)).tocoo()
+    fixed = np.zeros(len(V), dtype=bool)
+    for axis in axes:
+        side = V[:, axis] >= 0
+        crossing = side[A.row] & ~side[A.col]
+        fixed[A.row[crossing]] = True
+    return np.flatnonzero(fixed)

@@ -74,6 +74,10 @@ def cmd_info(args):
     print(f"  boundary loops       {info['boundary_loops']}")
     print(f"  non-manifold edges   {info['nonmanifold_edges']}")
     print(f"  unreferenced vertices {info['unreferenced_vertices']}")
+    print(f"  coinciding vertex pairs {info['coinciding_vertex_pairs']}")
+    print(f"  zero-area faces      {info['zero_area_faces']}")
+    if info["unreferenced_vertices"] or info["coinciding_vertex_pairs"] or info["zero_area_faces"]:
+        print("  (manifill harmonic --clean welds, drops unused vertices and zero-area faces)")
     return 0
 
 
@@ -163,7 +167,7 @@ def build_parser():
                    help="two samples on one vertex with different values: error (default) or average")
     s.add_argument("--max-snap", type=float, default=None,
                    help="largest accepted distance from a sample position to its vertex "
-                        "(default: 5%% of the mesh's bounding-box diagonal)")
+                        "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
     s.add_argument("--clean", action="store_true",
                    help="weld coinciding vertices and drop unused vertices and zero-area faces first")
     s.set_defaults(func=cmd_harmonic)

@@ -66,7 +66,7 @@ def cotangents(V, F):
     Examples
     --------
     >>> C = cotangents(np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
-    >>> np.round(C, 12).tolist()
+    >>> (np.round(C, 12) + 0.0).tolist()
     [[0.0, 0.5, 0.5]]
     """
     x, y, z = (np.ascontiguousarray(V[:, k]) for k in range(3))

@@ -81,8 +81,8 @@ class Samples:
             Several samples snapped onto one vertex with different values:
             raise, or average.
         max_distance : float, optional
-            Largest accepted snap distance, in the mesh's units; by default
-            ``TOL.snap`` times the bounding-box diagonal.
+            Largest accepted snap distance, in the mesh's units (default: see
+            :func:`snap_to_vertices`).
 
         Returns
         -------
@@ -141,7 +141,9 @@ def snap_to_vertices(V, points, *, max_distance=None):
         Query positions (``(k, 2)`` for a flat mesh).
     max_distance : float, optional
         Largest accepted distance; by default ``TOL.snap`` times the
-        bounding-box diagonal of ``V``.
+        bounding-box diagonal of ``V`` plus the largest distance from a vertex
+        to its nearest other vertex (so that a sample anywhere on a coarse
+        triangle is accepted).
 
     Returns
     -------
@@ -163,6 +165,10 @@ def snap_to_vertices(V, points, *, max_distance=None):
     >>> idx, dist = snap_to_vertices(V, [[0.9, 0.05, 0]])
     >>> idx.tolist(), round(float(dist[0]), 4)
     ([1], 0.1118)
+    >>> snap_to_vertices(V, [[900, 50, 0]])
+    Traceback (most recent call last):
+    ...
+    manifill.errors.SampleError: 1 samples lie far from the mesh (row 0: 900 from the nearest vertex, 637 x the mesh's size 1.41; accepted: 1.07); wrong units? ...)
     """
     V = np.asarray(V, dtype=np.float64)
     try:
@@ -177,8 +183,14 @@ def snap_to_vertices(V, points, *, max_distance=None):
     if bad.any():
         raise SampleError(f"sample positions have NaN or infinite coordinates in rows {_first(np.flatnonzero(bad))}")
     diag = bbox_diagonal(V)
-    limit = TOL.snap * diag if max_distance is None else float(max_distance)
-    dist, idx = cKDTree(V).query(P)
+    tree = cKDTree(V)
+    if max_distance is None:
+        # a sample anywhere on a coarse triangle may be an edge length from its vertex
+        spacing = float(tree.query(V, k=2)[0][:, 1].max()) if len(V) > 1 else 0.0
+        limit = TOL.snap * diag + spacing
+    else:
+        limit = float(max_distance)
+    dist, idx = tree.query(P)
     far = np.flatnonzero(dist > limit)
     if far.size:
         i = int(far[np.argmax(dist[far])])

@@ -8,7 +8,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .validate import as_mesh, bbox_diagonal, double_areas
+from .tolerances import TOL
+from .validate import as_mesh, bbox_diagonal, double_areas, duplicate_vertex_pairs
 
 __all__ = [
     "edges",
@@ -171,7 +172,8 @@ def mesh_info(V, F):
     -------
     dict
         ``vertices``, ``faces``, ``edges``, ``bbox_min``, ``bbox_max``,
-        ``diagonal``, ``unreferenced_vertices``, ``nonmanifold_edges`` (count),
+        ``diagonal``, ``unreferenced_vertices``, ``coinciding_vertex_pairs``
+        (an unwelded mesh), ``zero_area_faces``, ``nonmanifold_edges`` (count),
         ``boundary_loops`` (count) and ``components``: a list with, per component
         (largest first), its ``vertices``, ``faces``, ``boundary_loops``,
         ``euler`` characteristic, whether it is ``closed`` and, for a closed
@@ -215,6 +217,8 @@ def mesh_info(V, F):
         "bbox_max": V.max(axis=0).tolist(),
         "diagonal": bbox_diagonal(V),
         "unreferenced_vertices": int(np.count_nonzero(~used)),
+        "coinciding_vertex_pairs": int(len(duplicate_vertex_pairs(V))),
+        "zero_area_faces": int(np.count_nonzero(double_areas(V, F) <= 2 * TOL.degenerate_area * bbox_diagonal(V) ** 2)),
         "nonmanifold_edges": int(np.count_nonzero(count > 2)),
         "boundary_loops": len(loops),
         "components": comps,
@@ -251,8 +255,6 @@ def clean_mesh(V, F, *, tol=None):
     >>> len(V2), F2.tolist(), vmap.tolist()
     (4, [[0, 1, 2], [1, 3, 2]], [0, 1, 2, 1, 3, -1])
     """
-    from .validate import duplicate_vertex_pairs
-
     V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     n = len(V)
     pairs = duplicate_vertex_pairs(V, tol)
@@ -267,8 +269,6 @@ def clean_mesh(V, F, *, tol=None):
     keep_face = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
     F = F[keep_face]
     if len(F):
-        from .tolerances import TOL
-
         diag = bbox_diagonal(V)
         F = F[double_areas(V, F) > 2 * TOL.degenerate_area * diag * diag]
     used = np.zeros(n, dtype=bool)

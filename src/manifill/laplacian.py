@@ -88,21 +88,25 @@ def cotangents(V, F):
     return C
 
 
-def _edge_weights(V, F, n, weights):
-    """Off-diagonal weight matrix ``W`` of the faces ``F`` (CSR, duplicates summed)."""
-    if n < 2**31 - 1:
-        F = F.astype(np.int32)  # halves the memory traffic of the assembly and of every product
+def _entries(V, F, weights):
+    """Rows, columns and weights of the 6 off-diagonal entries each face adds."""
     C = np.ones((len(F), 3)) if weights == "uniform" else cotangents(V, F)
     i0, i1, i2 = F[:, 0], F[:, 1], F[:, 2]
     rows = np.concatenate([i1, i2, i2, i0, i0, i1])
     cols = np.concatenate([i2, i1, i0, i2, i1, i0])
     w = np.concatenate([C[:, 0], C[:, 0], C[:, 1], C[:, 1], C[:, 2], C[:, 2]])
-    if (F[:, 0] == F[:, 1]).any() or (F[:, 1] == F[:, 2]).any() or (F[:, 2] == F[:, 0]).any():
-        keep = rows != cols  # a face with a repeated vertex has no edge there
+    keep = rows != cols  # a face with a repeated vertex has no edge there
+    if not keep.all():
         rows, cols, w = rows[keep], cols[keep], w[keep]
-    W = sp.csr_array((w, (rows, cols)), shape=(n, n))
-    W.sum_duplicates()
-    return W
+    return rows, cols, w
+
+
+def _rows_csr(rows, cols, w, lo, hi, n):
+    """CSR of the entries with ``lo <= row < hi``, duplicates summed, zeros kept."""
+    sel = (rows >= lo) & (rows < hi)
+    B = sp.csr_array((w[sel], (rows[sel] - lo, cols[sel])), shape=(hi - lo, n))
+    B.sum_duplicates()
+    return B
 
 
 #: Faces per thread below which the assembly runs on one thread.
@@ -112,21 +116,24 @@ _CHUNK = 200_000
 def _assemble(V, F, n, weights):
     """``D - W`` for ``uniform`` or ``cotan`` weights, assembled on up to 4 threads.
 
-    The scatter of 6 entries per face into CSR is memory-bound and SciPy releases
-    the GIL there, so independent chunks of faces assemble in parallel; their sum
-    is one linear merge.
+    The weights are computed per chunk of faces, and the scatter into CSR per
+    block of rows; both are memory-bound NumPy/SciPy work that releases the GIL,
+    so the chunks run in parallel. Stacking row blocks keeps every stored entry,
+    zero weights included, so the pattern stays the mesh graph.
     """
+    if n < 2**31 - 1:
+        F = F.astype(np.int32)  # halves the memory traffic of the assembly and of every product
     k = int(min(os.cpu_count() or 1, 4, max(1, len(F) // _CHUNK)))
     if k == 1:
-        W = _edge_weights(V, F, n, weights)
+        W = _rows_csr(*_entries(V, F, weights), 0, n, n)
     else:
-        parts = np.array_split(np.arange(len(F)), k)
         with ThreadPoolExecutor(k) as pool:
-            Ws = list(pool.map(lambda p: _edge_weights(V, F[p], n, weights), parts))
-        W = Ws[0]
-        for other in Ws[1:]:
-            W = W + other
-        W.sum_duplicates()
+            parts = list(pool.map(lambda f: _entries(V, f, weights), np.array_split(F, k)))
+            rows, cols, w = (np.concatenate([p[j] for p in parts]) for j in range(3))
+            del parts
+            bounds = np.linspace(0, n, k + 1).astype(np.int64)
+            blocks = list(pool.map(lambda j: _rows_csr(rows, cols, w, bounds[j], bounds[j + 1], n), range(k)))
+        W = sp.csr_array(sp.vstack(blocks, format="csr"))
     if weights == "uniform":
         W.data[:] = 1.0  # every edge counts once, however many faces share it
     d = np.asarray(W.sum(axis=1)).ravel()

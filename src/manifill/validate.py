@@ -96,7 +96,10 @@ def _as_vertices(V):
 
 
 def _as_faces(F, n, width=3, what="F", kind="triangles"):
-    F = np.asarray(F)
+    try:
+        F = np.asarray(F)
+    except (TypeError, ValueError):
+        raise MeshError(f"{what} is ragged or not an array; pass an (m, {width}) integer array of {kind}") from None
     if F.ndim != 2 or F.shape[1] != width:
         raise MeshError(f"{what} has shape {F.shape}; pass an (m, {width}) integer array of {kind}")
     if F.shape[0] == 0:
@@ -274,7 +277,10 @@ def as_indices(b, n, *, what="b", unique=True):
     >>> as_indices([3.0, 1], 5).tolist()
     [3, 1]
     """
-    b = np.asarray(b)
+    try:
+        b = np.asarray(b)
+    except (TypeError, ValueError):
+        raise SampleError(f"{what} is ragged or not an array; pass a 1-D array of vertex indices") from None
     if b.ndim != 1:
         raise SampleError(f"{what} has shape {b.shape}; pass a 1-D array of vertex indices")
     if b.size == 0:
@@ -341,7 +347,7 @@ def as_values(bc, k, *, what="bc"):
     if squeeze:
         bc = bc[:, None]
     if bc.ndim != 2 or bc.shape[0] != k:
-        raise SampleError(f"{what} has shape {bc.shape} for {k} vertices; pass one value (or one row) per vertex")
+        raise SampleError(f"{what} has shape {bc.shape[:1] if squeeze else bc.shape} for {k} vertices; pass one value (or one row) per vertex")
     if bc.shape[1] == 0:
         raise SampleError(f"{what} has no columns; pass at least one field")
     bad = ~np.isfinite(bc).all(axis=1)

@@ -1,0 +1,340 @@
+"""The Laplacians L = D - W: null space, symmetry, definiteness, references, invariances."""
+
+import importlib
+
+import igl
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from conftest import (
+    FLAT,
+    MESHES,
+    adjacency_dense,
+    boundary_vertices,
+    dense,
+    edge_set,
+    grid,
+    icosphere,
+    irregular,
+    lattice,
+    nonmanifold,
+    obtuse,
+    relabel,
+)
+from manifill import MeshError, OptionError, laplacian
+
+WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
+mesh_params = pytest.mark.parametrize("mesh", list(MESHES), ids=list(MESHES))
+weight_params = pytest.mark.parametrize("weights", WEIGHTS)
+
+
+def offdiag(L):
+    """Dense off-diagonal part of L."""
+    D = dense(L).copy()
+    np.fill_diagonal(D, 0.0)
+    return D
+
+
+# ---------------------------------------------------------------------------
+# hand-computed cases
+# ---------------------------------------------------------------------------
+
+
+def test_cotan_single_right_triangle(single_triangle):
+    # angles 90 (at 0), 45, 45: w_01 = w_02 = cot(45)/2 = 1/2, w_12 = cot(90)/2 = 0
+    L = laplacian(*single_triangle, weights="cotan")
+    expected = [[1.0, -0.5, -0.5], [-0.5, 0.5, 0.0], [-0.5, 0.0, 0.5]]
+    np.testing.assert_allclose(dense(L), expected, atol=1e-15)
+
+
+def test_cotan_equilateral_triangle():
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0.5, np.sqrt(3) / 2, 0]])
+    w = 1 / (2 * np.sqrt(3))  # cot(60 deg) / 2
+    L = laplacian(V, [[0, 1, 2]], weights="cotan")
+    np.testing.assert_allclose(dense(L), [[2 * w, -w, -w], [-w, 2 * w, -w], [-w, -w, 2 * w]], atol=1e-15)
+
+
+def test_two_triangles_sum_their_weights():
+    # unit square split along 0-2: both angles opposite the diagonal are right angles
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    L = laplacian(V, [[0, 1, 2], [0, 2, 3]], weights="cotan")
+    assert L[0, 2] == 0.0 and L[1, 3] == 0.0
+    np.testing.assert_allclose(L[0, 1], -0.5, atol=1e-15)
+    np.testing.assert_allclose(L[0, 0], 1.0, atol=1e-15)
+
+
+# ---------------------------------------------------------------------------
+# properties of every weight on every mesh
+# ---------------------------------------------------------------------------
+
+
+@mesh_params
+@weight_params
+def test_constants_in_null_space(mesh, weights):
+    V, F = MESHES[mesh]()
+    L = laplacian(V, F, weights=weights)
+    scale = abs(L).max()
+    assert scale > 0
+    np.testing.assert_allclose(L @ np.ones(len(V)), 0.0, atol=1e-12 * scale)
+    np.testing.assert_allclose(L @ np.full(len(V), -7.25), 0.0, atol=1e-11 * scale)
+
+
+@mesh_params
+@weight_params
+def test_symmetric(mesh, weights):
+    V, F = MESHES[mesh]()
+    L = laplacian(V, F, weights=weights)
+    assert L.shape == (len(V), len(V))
+    assert abs(L - L.T).max() <= 1e-14 * abs(L).max()
+
+
+@mesh_params
+@weight_params
+def test_positive_semidefinite(mesh, weights):
+    V, F = MESHES[mesh]()
+    L = dense(laplacian(V, F, weights=weights))
+    lam = np.linalg.eigvalsh((L + L.T) / 2)
+    assert lam[0] >= -1e-10
+    # the null space is exactly the constants per component: one zero eigenvalue each
+    ncomp = 2 if mesh == "two_components" else 1
+    assert np.count_nonzero(lam < 1e-9) == ncomp
+
+
+@mesh_params
+def test_cotan_equals_minus_igl_cotmatrix(mesh):
+    V, F = MESHES[mesh]()
+    L = dense(laplacian(V, F, weights="cotan"))
+    C = dense(igl.cotmatrix(V, np.asarray(F, dtype=np.int64)))
+    np.testing.assert_allclose(L, -C, rtol=0, atol=1e-12 * abs(C).max())
+
+
+@mesh_params
+def test_uniform_is_degree_minus_adjacency(mesh):
+    V, F = MESHES[mesh]()
+    A = adjacency_dense(F, len(V))
+    L = dense(laplacian(V, F, weights="uniform"))
+    np.testing.assert_array_equal(L, np.diag(A.sum(axis=1)) - A)
+
+
+# ---------------------------------------------------------------------------
+# intrinsic Delaunay weights
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "mesh",
+    [lambda: icosphere(1), lambda: icosphere(2), lambda: lattice(6)],
+    ids=["icosphere1", "icosphere2", "equilateral_lattice"],
+)
+def test_intrinsic_equals_cotan_on_acute_mesh(mesh):
+    V, F = mesh()
+    Lc = dense(laplacian(V, F, weights="cotan"))
+    Li = dense(laplacian(V, F, weights="intrinsic"))
+    i, j = np.array(sorted(edge_set(F))).T
+    assert Lc[i, j].max() < 0  # the mesh is Delaunay: every cotan weight positive
+    np.testing.assert_allclose(Li, Lc, rtol=0, atol=1e-12 * abs(Lc).max())
+
+
+def test_intrinsic_has_no_negative_weight_where_cotan_does(obtuse_mesh):
+    V, F = obtuse_mesh
+    Wc = -offdiag(laplacian(V, F, weights="cotan"))
+    Wi = -offdiag(laplacian(V, F, weights="intrinsic"))
+    assert Wc.min() < -0.1  # the obtuse mesh is far from Delaunay
+    assert Wi.min() >= -1e-12
+    # the flips do not change the operator's action on constants or its definiteness
+    assert np.linalg.eigvalsh(-Wi + np.diag(Wi.sum(axis=1)))[0] >= -1e-10
+
+
+# ---------------------------------------------------------------------------
+# invariances
+# ---------------------------------------------------------------------------
+
+
+@weight_params
+@pytest.mark.parametrize("s", [1e-6, 1e6])
+def test_invariant_under_scaling(weights, s):
+    V, F = irregular()
+    V = V @ np.array([[0.8, 0.6, 0.0], [-0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])  # not axis-aligned
+    L = dense(laplacian(V, F, weights=weights))
+    Ls = dense(laplacian(V * s, F, weights=weights))
+    np.testing.assert_allclose(Ls, L, rtol=0, atol=1e-10 * abs(L).max())
+
+
+@weight_params
+def test_invariant_under_translation(weights):
+    V, F = irregular()
+    L = dense(laplacian(V, F, weights=weights))
+    Lt = dense(laplacian(V + np.array([1e6, -1e6, 1e6]), F, weights=weights))
+    # V + 1e6 keeps ~10 significant digits of the coordinates, and no more
+    np.testing.assert_allclose(Lt, L, rtol=0, atol=1e-6 * abs(L).max())
+
+
+@weight_params
+@pytest.mark.parametrize("mesh", [irregular, lambda: icosphere(1), obtuse], ids=["irregular", "icosphere", "obtuse"])
+def test_relabelling_permutes_L(weights, mesh):
+    V, F = mesh()
+    rng = np.random.default_rng(7)
+    perm = rng.permutation(len(V))
+    V2, F2, _ = relabel(V, F, perm, rng)
+    L = dense(laplacian(V, F, weights=weights))
+    L2 = dense(laplacian(V2, F2, weights=weights))
+    np.testing.assert_allclose(L2, L[np.ix_(perm, perm)], rtol=0, atol=1e-12 * abs(L).max())
+
+
+# ---------------------------------------------------------------------------
+# linear precision of the cotan Laplacian
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("mesh", list(FLAT), ids=list(FLAT))
+def test_cotan_linear_precision(mesh):
+    V, F = FLAT[mesh]()
+    rng = np.random.default_rng(3)
+    a, c = rng.normal(size=3), rng.normal()
+    interior = ~boundary_vertices(F, len(V))
+    assert interior.any()
+    L = laplacian(V, F, weights="cotan")
+    f = V @ a + c
+    r = L @ f
+    assert np.abs(r[interior]).max() <= 1e-12 * np.abs(f).max() * abs(L).max()
+
+
+def test_cotan_linear_precision_on_a_tilted_plane():
+    V, F = irregular()
+    Q, _ = np.linalg.qr(np.random.default_rng(4).normal(size=(3, 3)))  # a rotation (or reflection)
+    V3 = V @ Q.T + np.array([0.3, -2.0, 5.0])
+    interior = ~boundary_vertices(F, len(V))
+    a, c = np.array([1.5, -0.5, 2.0]), 0.25
+    r = laplacian(V3, F, weights="cotan") @ (V3 @ a + c)
+    assert np.abs(r[interior]).max() <= 1e-11
+
+
+def test_uniform_lacks_linear_precision_on_irregular_mesh():
+    # the control for the test above: geometry-blind weights do not reproduce x
+    V, F = irregular()
+    interior = ~boundary_vertices(F, len(V))
+    r = laplacian(V, F, weights="uniform") @ V[:, 0]
+    assert np.abs(r[interior]).max() > 1e-3
+
+
+# ---------------------------------------------------------------------------
+# sparsity pattern
+# ---------------------------------------------------------------------------
+
+
+def stored_pattern(L):
+    """Stored (i, j) positions of a CSR matrix, off the diagonal, and the stored diagonal."""
+    L = sp.csr_array(L)
+    rows = np.repeat(np.arange(L.shape[0]), np.diff(L.indptr))
+    off = {(int(i), int(j)) for i, j in zip(rows, L.indices) if i != j}
+    diag = {int(i) for i, j in zip(rows, L.indices) if i == j}
+    return off, diag
+
+
+@pytest.mark.parametrize("weights", ["uniform", "cotan"])
+@pytest.mark.parametrize("mesh", ["grid_right", "irregular", "obtuse", "two_components"])
+def test_pattern_is_mesh_adjacency(weights, mesh):
+    V, F = MESHES[mesh]()
+    L = laplacian(V, F, weights=weights)
+    off, diag = stored_pattern(L)
+    E = edge_set(F)
+    assert off == E | {(j, i) for i, j in E}
+    assert diag == set(range(len(V)))
+
+
+def test_zero_cotan_weights_stay_stored():
+    # on the right-diagonal grid every diagonal edge has two right angles opposite:
+    # weight exactly 0, but the edge is still there
+    V, F = grid(5, diagonal="right")
+    L = sp.csr_array(laplacian(V, F, weights="cotan"))
+    assert np.count_nonzero(L.data == 0.0) == 2 * 16  # 16 diagonal edges, stored both ways
+    off, _ = stored_pattern(L)
+    E = edge_set(F)
+    assert off == E | {(j, i) for i, j in E}
+
+
+def test_zero_weights_stay_stored_in_threaded_assembly(monkeypatch):
+    lap = importlib.import_module("manifill.laplacian")  # the module, not the function of that name
+    V, F = grid(5, diagonal="right")
+    serial = sp.csr_array(laplacian(V, F, weights="cotan"))
+    monkeypatch.setattr(lap, "_CHUNK", 4)
+    monkeypatch.setattr(lap.os, "cpu_count", lambda: 4)
+    threaded = sp.csr_array(laplacian(V, F, weights="cotan"))
+    np.testing.assert_allclose(dense(threaded), dense(serial), atol=1e-15)
+    assert threaded.nnz == serial.nnz
+
+
+def test_threaded_assembly_equals_serial(monkeypatch):
+    lap = importlib.import_module("manifill.laplacian")
+    V, F = irregular(12, seed=5)
+    expected = {w: dense(laplacian(V, F, weights=w)) for w in ("uniform", "cotan")}
+    monkeypatch.setattr(lap, "_CHUNK", 10)
+    monkeypatch.setattr(lap.os, "cpu_count", lambda: 4)
+    for w, L in expected.items():
+        np.testing.assert_allclose(dense(laplacian(V, F, weights=w)), L, rtol=0, atol=1e-14)
+
+
+# ---------------------------------------------------------------------------
+# input handling
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32, np.uint32, np.int64])
+@weight_params
+def test_face_integer_dtypes_accepted(dtype, weights):
+    V, F = grid(5)
+    L = laplacian(V, F.astype(np.int64), weights=weights)
+    Ld = laplacian(V, F.astype(dtype), weights=weights)
+    np.testing.assert_array_equal(dense(Ld), dense(L))
+
+
+def test_flat_2d_input_equals_z0():
+    V, F = irregular()
+    np.testing.assert_array_equal(dense(laplacian(V[:, :2], F)), dense(laplacian(V, F)))
+
+
+def test_unknown_weights_is_an_option_error(single_triangle):
+    with pytest.raises(OptionError, match="weights='cot'.*'uniform'.*'cotan'"):
+        laplacian(*single_triangle, weights="cot")
+
+
+def with_degenerate_face():
+    V, F = grid(3)
+    V = np.vstack([V, [[2.0, 0.0, 0.0], [3.0, 0.0, 0.0]]])  # 9, 10 collinear with vertex 2
+    return V, np.vstack([F, [[2, 9, 10]]])
+
+
+@pytest.mark.parametrize("weights", ["uniform", "robust"])
+def test_degenerate_faces_tolerated_by_uniform_and_robust(weights):
+    V, F = with_degenerate_face()
+    L = laplacian(V, F, weights=weights)
+    assert np.isfinite(L.data).all()
+    np.testing.assert_allclose(L @ np.ones(len(V)), 0.0, atol=1e-12 * abs(L).max())
+    assert np.linalg.eigvalsh(dense(L))[0] >= -1e-10
+
+
+@pytest.mark.parametrize("weights", ["cotan", "intrinsic"])
+def test_degenerate_faces_rejected_by_cotan_and_intrinsic(weights):
+    V, F = with_degenerate_face()
+    with pytest.raises(MeshError, match="zero area.*faces 8"):
+        laplacian(V, F, weights=weights)
+
+
+@weight_params
+def test_nonmanifold_edge(weights):
+    V, F = nonmanifold()
+    L = dense(laplacian(V, F, weights=weights))
+    assert np.isfinite(L).all()
+    np.testing.assert_allclose(L, L.T, atol=1e-14)
+    np.testing.assert_allclose(L.sum(axis=1), 0.0, atol=1e-12 * abs(L).max())
+    assert np.linalg.eigvalsh(L)[0] >= -1e-10
+
+
+@pytest.mark.parametrize("weights", ["uniform", "cotan"])
+def test_unreferenced_vertex_gets_an_empty_row(weights):
+    V, F = grid(4)
+    V = np.vstack([V, [[5.0, 5.0, 0.0]]])
+    L = dense(laplacian(V, F, weights=weights))
+    assert not L[-1].any() and not L[:, -1].any()
+    np.testing.assert_allclose(L[:-1, :-1], dense(laplacian(V[:-1], F, weights=weights)), rtol=0, atol=1e-14)

@@ -8,6 +8,7 @@ half-written.
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -35,18 +36,21 @@ def _load(args):
     from .topology import clean_mesh
 
     V, F = read_mesh(args.mesh)
-    vmap = None
+    # vertex indices refer to the file's numbering, so samples are read against it
+    S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
     if args.clean:
         n0 = len(V)
         V, F, vmap = clean_mesh(V, F)
         print(f"cleaned mesh: {n0:,} -> {len(V):,} vertices, {len(F):,} faces")
-    S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
-    if vmap is not None and S.snap_distance is None:
-        # vertex-indexed samples refer to the file's numbering: renumber them
-        new = vmap[np.clip(S.idx, 0, len(vmap) - 1)]
-        if (S.idx >= len(vmap)).any() or (new < 0).any():
-            raise SampleError("some samples sit on vertices that --clean removed; sample used vertices only")
-        S = Samples.from_indices(new, S.vals, len(V), names=S.names, duplicates=args.duplicates)
+        if S.snap_distance is None:
+            new = vmap[S.idx]
+            if (new < 0).any():
+                raise SampleError(
+                    f"{int((new < 0).sum())} samples sit on vertices that --clean removed (e.g. vertex "
+                    f"{int(S.idx[new < 0][0])}, used by no face); sample vertices of the surface only")
+            S = Samples.from_indices(new, S.vals, len(V), names=S.names, duplicates=args.duplicates)
+        else:
+            S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
     return V, F, S
 
 
@@ -102,8 +106,12 @@ def cmd_harmonic(args):
         fields = {name: X[:, j] for j, name in enumerate(S.names)}
         fixed = np.zeros(len(V), dtype=bool)
         fixed[S.idx] = True
-        fields["fixed"] = fixed
-        write_mesh(out, V, F, fields)
+        mask_name = next(m for m in ("fixed", "fixed_mask", "manifill_fixed") if m not in fields)
+        fields[mask_name] = fixed
+        written = write_mesh(out, V, F, fields)
+        renamed = {a: b for a, b in written.items() if a != b}
+        if renamed:
+            print("note: fields renamed for the format: " + ", ".join(f"{a!r} -> {b!r}" for a, b in renamed.items()))
     rep = solver.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})"
           + (f", {S.merged} merged" if S.merged else ""))
@@ -111,7 +119,7 @@ def cmd_harmonic(args):
         print(f"snapped positions to vertices: largest distance {S.snap_distance.max():.3g}")
     its = rep.get("iterations")
     print(f"harmonic fill: weights={rep['weights']}, solver={rep['solver']}"
-          + (f", iterations {its}" if its else "") + f", {seconds:.2f} s")
+          + (f", {', '.join(map(str, its))} iterations" if its else "") + f", {seconds:.2f} s")
     if rep["negative_weights"]:
         print(f"note: {rep['negative_weights']:,} edges have negative cotangent weights (obtuse triangles), "
               f"so values may overshoot the samples; --weights intrinsic avoids that")
@@ -134,9 +142,16 @@ def cmd_demo(args):
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with manifill's one-line errors (exit status 2)."""
+
+    def error(self, message):
+        self.exit(2, f"manifill: error: {message} (see '{self.prog} --help')\n")
+
+
 def build_parser():
     """The argument parser (exposed for documentation and tests)."""
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="manifill",
         description="Reconstruct a smooth field over a surface from a few sample values, without changing the mesh.",
     )
@@ -200,6 +215,10 @@ def main(argv=None):
         return int(exc.code or 0)
     try:
         return args.func(args)
+    except BrokenPipeError:
+        # the reader went away (e.g. `manifill info --json m.ply | head`): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except ManifillError as exc:
         return _err(str(exc))
     except ImportError as exc:

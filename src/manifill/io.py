@@ -21,6 +21,7 @@ NPY
 
 import csv
 import os
+import re
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -114,8 +115,10 @@ def read_mesh(path):
     ext = _suffix(path, tuple(MESH_FORMATS), "read")
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
+    if ext == ".off":
+        _check_off_header(path)
     try:
-        mesh = meshio.read(path, file_format=MESH_FORMATS[ext][0])
+        mesh = getattr(meshio, MESH_FORMATS[ext][0]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
     except (meshio.ReadError, ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ReadError(f"{path.name}: not a readable {ext[1:].upper()} mesh ({msg}); check the file") from None
@@ -135,6 +138,30 @@ def read_mesh(path):
     return V, np.concatenate(faces).astype(np.int64)
 
 
+def _check_off_header(path):
+    """Reject an OFF file without its counts line (meshio's reader would never return)."""
+    words = []
+    try:
+        with open(path, "rb") as fh:
+            for raw in fh:
+                line = raw.split(b"#")[0].strip()
+                if line:
+                    words.extend(line.split())
+                if len(words) >= 4:
+                    break
+    except OSError as exc:
+        raise ReadError(f"{path.name}: could not read ({exc})") from None
+    ok = len(words) >= 4 and words[0].endswith(b"OFF")
+    if ok:
+        try:
+            [int(w) for w in words[1:4]]
+        except ValueError:
+            ok = False
+    if not ok:
+        raise ReadError(f"{path.name}: not a readable OFF mesh (no 'OFF' line followed by vertex, face "
+                        f"and edge counts); check the file")
+
+
 def write_mesh(path, V, F, point_data=None):
     """Write a triangle mesh with named per-vertex fields, atomically.
 
@@ -148,9 +175,19 @@ def write_mesh(path, V, F, point_data=None):
     F : (m, 3) numpy array of int
         Triangles.
     point_data : dict of str to (n,) or (n, p) numpy array, optional
-        Named fields. A ``(n, p)`` field is written as ``p`` scalar fields
-        ``name_0 ... name_{p-1}`` in PLY and as one ``p``-component array in
-        VTK/VTU. Integer and boolean fields (labels, masks) keep an integer type.
+        Named fields. A ``(n, p)`` field is written as one ``p``-component
+        array in VTU, and in VTK when ``p`` is 3; otherwise (PLY, and VTK with
+        ``p`` other than 3) as ``p`` scalar fields ``name_0 ... name_{p-1}``.
+        Integer and boolean fields (labels, masks) keep an integer type. PLY
+        property names must be plain words distinct from the coordinates, so
+        there other characters become ``_`` and ``x``, ``y``, ``z`` (or a
+        repeated name) get a ``field_`` prefix.
+
+    Returns
+    -------
+    dict of str to str
+        The name each field was written under (differs from the given name
+        only for PLY, as above).
 
     Raises
     ------
@@ -168,7 +205,7 @@ def write_mesh(path, V, F, point_data=None):
             f"{Path(path).name}: {ext[1:].upper()} cannot store per-vertex fields; write .ply, .vtu or .vtk "
             f"(or the values alone as .csv/.npy)"
         )
-    out = {}
+    out, written = {}, {}
     n = len(V)
     for name, arr in point_data.items():
         arr = np.asarray(arr)
@@ -180,17 +217,30 @@ def write_mesh(path, V, F, point_data=None):
             arr = arr.astype(np.float64)
         if arr.shape[0] != n:
             raise WriteError(f"field {name!r} has {arr.shape[0]} values for {n} vertices; pass one per vertex")
-        if arr.ndim == 2 and fmt == "ply":
+        key = _ply_name(name, out) if fmt == "ply" else str(name)
+        written[name] = key
+        if arr.ndim == 2 and (fmt == "ply" or (fmt == "vtk" and arr.shape[1] != 3)):
             for j in range(arr.shape[1]):
-                out[f"{name}_{j}"] = np.ascontiguousarray(arr[:, j])
+                out[f"{key}_{j}"] = np.ascontiguousarray(arr[:, j])
         else:
-            out[name] = arr
+            out[key] = arr
     mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), [("triangle", np.asarray(F, dtype=np.int32))], point_data=out)
     with atomic_path(path) as tmp:
         try:
             meshio.write(tmp, mesh, file_format=fmt)
         except (meshio.WriteError, ValueError, KeyError, TypeError, OSError) as exc:
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path and the fields") from None
+    return written
+
+
+def _ply_name(name, taken):
+    """A PLY property name for ``name``: a plain word, not a coordinate, not taken."""
+    key = re.sub(r"\W", "_", str(name)) or "field"
+    if key in ("x", "y", "z") or key[0].isdigit():
+        key = f"field_{key}"
+    while key in taken:
+        key = f"field_{key}"
+    return key
 
 
 def _split_header(header, path):
@@ -257,7 +307,12 @@ def read_samples(path, V, *, duplicates="error", max_distance=None):
 def _read_csv(path):
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+            reader = csv.reader(fh)
+            rows, lineno = [], []
+            for r in reader:
+                if r and any(c.strip() for c in r):
+                    rows.append(r)
+                    lineno.append(reader.line_num)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ReadError(f"{path.name}: could not read as CSV ({exc})") from None
     if not rows:
@@ -269,17 +324,17 @@ def _read_csv(path):
     table = np.empty((len(rows) - 1, len(header)))
     for i, row in enumerate(rows[1:]):
         if len(row) != len(header):
-            raise ReadError(f"{path.name}: line {i + 2} has {len(row)} fields, the header {len(header)}")
+            raise ReadError(f"{path.name}: line {lineno[i + 1]} has {len(row)} fields, the header {len(header)}")
         for j, cell in enumerate(row):
             try:
                 table[i, j] = float(cell)
             except ValueError:
                 raise ReadError(
-                    f"{path.name}: line {i + 2}, column {header[j].strip()!r}: {cell!r} is not a number"
+                    f"{path.name}: line {lineno[i + 1]}, column {header[j].strip()!r}: {cell!r} is not a number"
                 ) from None
     bad = ~np.isfinite(table).all(axis=1)
     if bad.any():
-        lines = ", ".join(str(int(r) + 2) for r in np.flatnonzero(bad)[:5])
+        lines = ", ".join(str(lineno[int(r) + 1]) for r in np.flatnonzero(bad)[:5])
         raise SampleError(f"{path.name}: NaN or infinite values on lines {lines}; remove or fix those samples")
     return kind, table, [h.strip() for h in header[ncoord:]]
 
@@ -288,26 +343,31 @@ def _read_npz(path):
     try:
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise ReadError(f"{path.name}: not a readable .npz ({exc})") from None
+    except (OSError, ValueError, EOFError):
+        raise ReadError(f"{path.name}: not a readable .npz archive; save it with numpy.savez") from None
     if "vals" not in data or not ({"idx", "points"} & set(data)):
         raise ReadError(f"{path.name}: needs arrays 'vals' and 'idx' (or 'points'); found {sorted(data)}")
-    vals = np.asarray(data["vals"], dtype=np.float64)
+    try:
+        vals = np.asarray(data["vals"], dtype=np.float64)
+        key = "idx" if "idx" in data else "points"
+        loc = np.asarray(data[key], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ReadError(f"{path.name}: 'vals' and '{key}' must be numeric arrays") from None
     vals = vals[:, None] if vals.ndim == 1 else vals
     names = [str(s) for s in data["names"]] if "names" in data else None
-    if "idx" in data:
-        return "vertex", np.column_stack([np.asarray(data["idx"], dtype=np.float64).ravel(), vals]), names
-    pts = np.asarray(data["points"], dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) != len(vals):
-        raise ReadError(f"{path.name}: 'points' has shape {pts.shape}; pass (k, 3) with one row per value row")
-    return "points", np.column_stack([pts, vals]), names
+    want = "(k,)" if key == "idx" else "(k, 3)"
+    if vals.ndim != 2 or loc.ndim != (1 if key == "idx" else 2) or len(loc) != len(vals) or (
+            key == "points" and loc.shape[1] != 3):
+        raise ReadError(f"{path.name}: '{key}' has shape {loc.shape} and 'vals' {vals.shape}; pass '{key}' "
+                        f"as {want} and 'vals' as (k,) or (k, p) with one row per sample")
+    return ("vertex" if key == "idx" else "points"), np.column_stack([loc, vals]), names
 
 
 def _read_structured_npy(path):
     try:
         arr = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as exc:
-        raise ReadError(f"{path.name}: not a readable .npy ({exc})") from None
+    except (OSError, ValueError, EOFError):
+        raise ReadError(f"{path.name}: not a readable .npy array; save it with numpy.save") from None
     if arr.dtype.names is None:
         raise ReadError(
             f"{path.name}: a plain array has no column names; save a structured array with fields "
@@ -315,7 +375,10 @@ def _read_structured_npy(path):
         )
     header = list(arr.dtype.names)
     kind, ncoord = _split_header(header, path)
-    table = np.column_stack([np.asarray(arr[h], dtype=np.float64).ravel() for h in header])
+    try:
+        table = np.column_stack([np.asarray(arr[h], dtype=np.float64).ravel() for h in header])
+    except (TypeError, ValueError):
+        raise ReadError(f"{path.name}: every field of the array must be numeric") from None
     return kind, table, header[ncoord:]
 
 

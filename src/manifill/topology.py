@@ -118,7 +118,8 @@ def boundary_loops(F):
     list of (k,) int64 numpy arrays
         Each loop as its vertex sequence (the first vertex is not repeated),
         longest loop first. Where boundary edges meet at a vertex used more than
-        twice (a pinched boundary) the loops are split there.
+        twice (a pinched boundary) the loops are split there. On a non-manifold
+        mesh a "loop" may be an open chain of boundary edges.
 
     Examples
     --------

@@ -21,6 +21,12 @@ def _first(idx, k=5):
     return head + (", ..." if idx.size > k else "")
 
 
+def _integral_floats(a):
+    """True for a float array of whole numbers small enough to be indices."""
+    return (np.issubdtype(a.dtype, np.floating) and bool(np.all(np.isfinite(a)))
+            and bool(np.all(a == np.round(a))) and bool(np.all(np.abs(a) < 2.0**62)))
+
+
 def check_option(name, value, allowed):
     """Check that a keyword option is one of a closed set of strings.
 
@@ -105,7 +111,7 @@ def _as_faces(F, n, width=3, what="F", kind="triangles"):
     if F.shape[0] == 0:
         raise MeshError(f"{what} is empty; pass at least one of the {kind}")
     if not np.issubdtype(F.dtype, np.integer):
-        if np.issubdtype(F.dtype, np.floating) and np.all(np.isfinite(F)) and np.all(F == np.round(F)):
+        if _integral_floats(F):
             F = F.astype(np.int64)
         else:
             raise MeshError(f"{what} has dtype {F.dtype}; pass vertex indices as integers")
@@ -286,7 +292,7 @@ def as_indices(b, n, *, what="b", unique=True):
     if b.size == 0:
         raise SampleError(f"{what} is empty; fix at least one vertex")
     if not np.issubdtype(b.dtype, np.integer):
-        if np.issubdtype(b.dtype, np.floating) and np.all(np.isfinite(b)) and np.all(b == np.round(b)):
+        if _integral_floats(b):
             b = b.astype(np.int64)
         else:
             raise SampleError(f"{what} has dtype {b.dtype}; pass vertex indices as integers")

@@ -1,0 +1,247 @@
+"""Step 4 of the paper: a value at every curve vertex, from the samples on the curves.
+
+The curve network of :mod:`manifill.partition` is a graph of its own (consecutive
+path vertices are joined). Two ways to fill it:
+
+``gvf``
+    Gradually varied fitting on the curve graph (the paper's choice): levels
+    change by at most one per curve edge. The samples satisfy the condition on
+    the curves whenever they do on the mesh, since curve distances are never
+    shorter than mesh distances.
+``linear``
+    Linear in arc length between consecutive samples along each path: the
+    one-dimensional harmonic function on the curve graph with edge weights
+    ``1 / length``. Where paths meet away from a sample, the junction takes the
+    weighted average of its neighbours, so the values agree at junctions. Never
+    leaves the range of the samples.
+``hermite``
+    Cubic in arc length along each path, matching the samples' values at both
+    ends and slopes taken from a gradient estimated at every sample: a
+    least-squares quadratic (or, with fewer than six, linear) fit to the samples
+    it is joined to, in its tangent plane, each placed at its path's arc length
+    along the path's initial direction. Exact for linear fields on flat meshes;
+    much closer than ``linear`` on smooth fields (the error on the curves
+    dominates the reconstruction's), but a cubic can overshoot the samples'
+    range. Vertices shared by several paths take the mean of their values.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+
+from .gradual import gvf
+from .solvers import make_linear_solver
+from .validate import check_option
+
+__all__ = ["CURVE_VALUES", "curve_graph", "curve_values", "vertex_normals"]
+
+CURVE_VALUES = ("hermite", "linear", "gvf")
+
+
+def curve_graph(V, edges, n, *, distance="length"):
+    """The curve network as a weighted graph on all ``n`` vertices.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    edges : (e, 2) numpy array of int
+        Unique curve edges (:meth:`manifill.partition.Partition.curve_edges`).
+    n : int
+        Number of mesh vertices.
+    distance : {'length', 'hops'}, optional
+        Edge length: Euclidean, or 1.
+
+    Returns
+    -------
+    (n, n) scipy.sparse.csr_array
+        Symmetric edge lengths; vertices off the curves have no edges.
+    """
+    i, j = edges[:, 0], edges[:, 1]
+    w = np.ones(len(edges)) if distance == "hops" else np.maximum(np.linalg.norm(V[i] - V[j], axis=1), 1e-300)
+    return sp.csr_array((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
+
+
+def vertex_normals(V, F):
+    """Area-weighted unit vertex normals.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    F : (m, 3) numpy array of int
+        Triangles.
+
+    Returns
+    -------
+    (n, 3) numpy array
+        Unit normals (zero where undefined).
+    """
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    out = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(out, F[:, k], N)
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.divide(out, norm, out=np.zeros_like(out), where=norm > 0)
+
+
+def _arc(V, path):
+    seg = np.linalg.norm(np.diff(V[path], axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def _start_direction(V, normal, path, s):
+    """Unit tangent at the first vertex of ``path``, towards a third of its length."""
+    j = int(np.searchsorted(s, s[-1] / 3.0))
+    j = min(max(j, 1), len(path) - 1)
+    d = V[path[j]] - V[path[0]]
+    d = d - (d @ normal) * normal
+    nd = np.linalg.norm(d)
+    return d / nd if nd > 0 else d
+
+
+def _gradients(V, normals, ends, idx, vals):
+    """Gradient (in the tangent plane) of every field at every sample.
+
+    A weighted least-squares fit at each sample to the samples within two
+    steps of it in the curve network (its neighbours and theirs), placed by
+    their offsets projected onto its tangent plane: quadratic where eight or
+    more are well spread, linear otherwise.
+    """
+    k, p = vals.shape
+    pos = np.searchsorted(idx, ends)
+    A = sp.csr_array((np.ones(2 * len(pos)), (np.concatenate([pos[:, 0], pos[:, 1]]),
+                                             np.concatenate([pos[:, 1], pos[:, 0]]))), shape=(k, k))
+    A2 = A + A @ A
+    grads = np.zeros((k, 3, p))
+    for i in range(k):
+        nb = A2.indices[A2.indptr[i]:A2.indptr[i + 1]]
+        nb = nb[nb != i]
+        if nb.size < 2:
+            continue
+        n = normals[idx[i]]
+        e1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        d = V[idx[nb]] - V[idx[i]]
+        D = np.column_stack([d @ e1, d @ e2])
+        Y = vals[nb] - vals[i]
+        sw = 1.0 / np.maximum(np.linalg.norm(D, axis=1), 1e-300)
+        coef = None
+        if nb.size >= 8:
+            Q = np.column_stack([D, 0.5 * D[:, 0] ** 2, D[:, 0] * D[:, 1], 0.5 * D[:, 1] ** 2])
+            Qw = Q * sw[:, None]
+            if np.linalg.cond(Qw) < 1e8:
+                coef = np.linalg.lstsq(Qw, Y * sw[:, None], rcond=None)[0]
+        if coef is None:
+            Dw = D * sw[:, None]
+            if np.linalg.cond(Dw) > 1e8:
+                continue
+            coef = np.linalg.lstsq(Dw, Y * sw[:, None], rcond=None)[0]
+        grads[i] = np.outer(e1, coef[0]) + np.outer(e2, coef[1])
+    return grads
+
+
+def _hermite(V, F, curves, ends, idx, vals):
+    normals = vertex_normals(V, F)
+    arcs = [_arc(V, c) for c in curves]
+    grads = _gradients(V, normals, ends, idx, vals)
+    pos = {int(v): i for i, v in enumerate(idx)}
+    n, p = len(V), vals.shape[1]
+    total = np.zeros((n, p))
+    count = np.zeros(n)
+    for path, s in zip(curves, arcs):
+        a, b = pos.get(int(path[0])), pos.get(int(path[-1]))
+        ell = s[-1]
+        if a is None or b is None or ell <= 0:
+            continue
+        ta = _start_direction(V, normals[path[0]], path, s)
+        tb = _start_direction(V, normals[path[-1]], path[::-1], ell - s[::-1])
+        ma = ta @ grads[a]          # slope leaving a, per unit arc length
+        mb = -(tb @ grads[b])       # slope arriving at b
+        t = (s / ell)[:, None]
+        h00, h10 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t
+        h01, h11 = -2 * t**3 + 3 * t**2, t**3 - t**2
+        vals_path = h00 * vals[a] + h10 * ell * ma + h01 * vals[b] + h11 * ell * mb
+        total[path[1:-1]] += vals_path[1:-1]
+        count[path[1:-1]] += 1
+    return total, count
+
+
+def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=None, F=None, curves=None,
+                 ends=None):
+    """Values at every curve vertex, equal to the samples at the samples.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    edges : (e, 2) numpy array of int
+        Unique curve edges.
+    idx : (k,) numpy array of int
+        Sample vertices (all on the curves).
+    vals : (k,) or (k, p) numpy array of float
+        Sample values (``linear``).
+    method : {'linear', 'gvf'}, optional
+        See the module docstring.
+    levels : (m,) numpy array, optional
+        The value levels (``gvf``; from :func:`manifill.gradual.check_gradual`).
+    level : (k,) numpy array of int, optional
+        Level index of every sample (``gvf``).
+    F : (m, 3) numpy array of int, optional
+        Triangles, for the normals (``hermite``).
+    curves : list of (l,) numpy arrays, optional
+        The ordered paths between samples (``hermite``).
+    ends : (c, 2) numpy array of int, optional
+        The samples at the ends of each path (``hermite``).
+
+    Returns
+    -------
+    cv : (c,) int64 numpy array
+        The curve vertices (sorted).
+    values : (c,) or (c, p) numpy array
+        Their values.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [3, 0, 0], [4, 0, 0]])
+    >>> cv, x = curve_values(V, np.array([[0, 1], [1, 2], [2, 3]]), np.array([0, 3]), np.array([0.0, 8.0]))
+    >>> cv.tolist(), x.tolist()
+    ([0, 1, 2, 3], [0.0, 2.0, 6.0, 8.0])
+    """
+    check_option("curve_values", method, CURVE_VALUES)
+    n = len(V)
+    idx = np.asarray(idx, dtype=np.int64)
+    cv = np.unique(np.concatenate([edges.ravel(), idx])) if len(edges) else np.sort(idx)
+    if method == "gvf":
+        G = curve_graph(V, edges, n, distance="hops")
+        fit = gvf(G, idx, level)
+        return cv, np.asarray(levels)[fit[cv]]
+    vals = np.asarray(vals, dtype=np.float64)
+    squeeze = vals.ndim == 1
+    vals2 = vals[:, None] if squeeze else vals
+    if method == "hermite":
+        total, count = _hermite(V, F, curves, ends, idx, vals2)
+        total[idx] = vals2
+        count[idx] = 1
+        lone = cv[count[cv] == 0]
+        if lone.size:  # a curve vertex on no sample-to-sample path: fall back to linear
+            _, lin = curve_values(V, edges, idx, vals2, method="linear")
+            total[lone] = lin[np.searchsorted(cv, lone)]
+            count[lone] = 1
+        out = total[cv] / count[cv][:, None]
+        return cv, out[:, 0] if squeeze else out
+    G = curve_graph(V, edges, n)[cv][:, cv]
+    W = G.copy()
+    W.data = 1.0 / W.data
+    L = (sp.diags_array(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
+    pos = np.searchsorted(cv, idx)
+    free = np.ones(cv.size, dtype=bool)
+    free[pos] = False
+    out = np.empty((cv.size, vals2.shape[1]))
+    out[pos] = vals2
+    if free.any():
+        fi = np.flatnonzero(free)
+        # every curve component holds a sample, so the reduced system is definite
+        solver = make_linear_solver(L[fi][:, fi], "direct")
+        out[fi] = solver.solve(-(L[fi][:, pos] @ vals2))[0]
+    return cv, out[:, 0] if squeeze else out

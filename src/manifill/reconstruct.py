@@ -1,0 +1,236 @@
+"""The paper's reconstruction on a surface, Steps 1-6, as one call.
+
+``gvf-harmonic`` (the default) runs the whole pipeline: check the gradual variation
+condition and choose levels (Step 1, :mod:`manifill.gradual`); cut the surface by
+curves through every sample (Steps 2-3, :mod:`manifill.partition`); give every
+curve vertex a value (Step 4, :mod:`manifill.curves`); fill every patch
+harmonically with the curve values fixed (Steps 5-6, :mod:`manifill.harmonic`).
+``harmonic`` fixes only the samples (the naive baseline) and ``gvf`` stops at the
+gradually varied fit of the whole surface.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .curves import CURVE_VALUES
+from .curves import curve_values as _curve_values
+from .errors import SampleError
+from .geodesic import DISTANCES, mesh_graph
+from .gradual import check_gradual, gvf, violation_message
+from .harmonic import ON_EMPTY, HarmonicSolver
+from .laplacian import WEIGHTS, _laplacian
+from .partition import PARTITIONS
+from .partition import partition as _partition
+from .solvers import ITERATIONS, SOLVERS
+from .validate import as_mesh, as_samples, check_option
+
+__all__ = ["METHODS", "INITS", "Reconstruction", "reconstruct"]
+
+METHODS = ("gvf-harmonic", "harmonic", "gvf")
+INITS = ("gvf", "random", "mean")
+
+
+@dataclass
+class Reconstruction:
+    """The result of :func:`reconstruct`.
+
+    Attributes
+    ----------
+    values : (n,) or (n, p) numpy array
+        The field at every vertex, equal to the samples at the samples.
+    curves : list of (l,) int64 numpy arrays
+        The partition curves (``gvf-harmonic``; empty otherwise).
+    components : (n,) int64 numpy array
+        Patch of every vertex, ``-1`` on the curves (all ``0`` for methods
+        without a partition).
+    on_curve : (n,) bool numpy array
+        The vertices whose values were fixed before the harmonic fill.
+    levels : list of (m,) numpy arrays
+        The value levels of each field (Step 1).
+    report : dict
+        Diagnostics: the gradual variation check per field (Lipschitz
+        constant, level step, violations), the partition's report, the
+        harmonic solver's report, and ``seconds`` per step.
+    """
+
+    values: np.ndarray
+    curves: list
+    components: np.ndarray
+    on_curve: np.ndarray
+    levels: list
+    report: dict = field(default_factory=dict)
+
+
+def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
+                distance="length", levels=None, curve_values="linear", solver="auto",
+                on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
+                tol=None, maxiter=None):
+    """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles, any integer dtype.
+    idx : (k,) array_like of int
+        Sample vertices.
+    vals : (k,) or (k, p) array_like of float
+        Sample values, one column per field.
+    method : {'gvf-harmonic', 'harmonic', 'gvf'}, optional
+        The whole pipeline; harmonic with the samples alone fixed; or the
+        gradually varied fit of the whole surface (values on the levels).
+    partition : {'delaunay', 'cycle', 'tree'}, optional
+        How the curves are drawn (:mod:`manifill.partition`).
+    weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
+        Laplacian weights of the harmonic fill.
+    distance : {'length', 'hops'}, optional
+        What the partition's shortest paths and the Lipschitz report measure.
+    levels : None, int or (m,) array_like, optional
+        Value levels for Step 1 (see :func:`manifill.gradual.check_gradual`);
+        by default the finest uniform step at which the samples satisfy the
+        condition. With ``curve_values='gvf'`` or ``method='gvf'`` a
+        violation is an error; otherwise it is reported.
+    curve_values : {'linear', 'gvf'}, optional
+        Step 4 (:mod:`manifill.curves`).
+    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
+        Linear solver of the harmonic fill.
+    on_empty : {'error', 'nan'}, optional
+        A mesh component without samples: raise, or leave it NaN.
+    duplicates : {'error', 'mean'}, optional
+        Several samples on one vertex with different values: raise, or average.
+    iteration : {'gauss-seidel', 'jacobi'}, optional
+        Sweeps of ``solver='iterate'``.
+    init : {'gvf', 'random', 'mean'}, optional
+        Initial values of ``solver='iterate'`` (the paper's Step 5: random, or
+        the GVF fit, which it says converges faster).
+    seed : int, optional
+        Seed of ``init='random'``.
+    tol, maxiter : optional
+        Passed to the solver.
+
+    Returns
+    -------
+    Reconstruction
+
+    Raises
+    ------
+    MeshError, SampleError, OptionError, SolveError
+        On malformed input, broken gradual variation where it is required, or
+        a component without samples (``on_empty='error'``).
+
+    Examples
+    --------
+    >>> from manifill.shapes import icosphere
+    >>> V, F = icosphere(3)
+    >>> idx = np.arange(0, 642, 40)
+    >>> r = reconstruct(V, F, idx, V[idx, 0] + V[idx, 2])
+    >>> bool(np.allclose(r.values[idx], V[idx, 0] + V[idx, 2])), r.report["partition"]["method"]
+    (True, 'delaunay')
+    """
+    t0 = time.perf_counter()
+    check_option("method", method, METHODS)
+    check_option("partition", partition, PARTITIONS)
+    check_option("weights", weights, WEIGHTS)
+    check_option("distance", distance, DISTANCES)
+    check_option("curve_values", curve_values, CURVE_VALUES)
+    check_option("solver", solver, SOLVERS)
+    check_option("on_empty", on_empty, ON_EMPTY)
+    check_option("iteration", iteration, ITERATIONS)
+    check_option("init", init, INITS)
+    V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
+    n = len(V)
+    idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
+    seconds = {"validate": time.perf_counter() - t0}
+    report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
+
+    t = time.perf_counter()
+    L = _laplacian(V, F, weights) if weights in ("uniform", "cotan") else None
+    pattern = L
+    if pattern is None:
+        pattern = _laplacian(V, F, "uniform")
+    G_hops = mesh_graph(V, F, distance="hops", pattern=pattern)
+    G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", pattern=pattern)
+    seconds["graph"] = time.perf_counter() - t
+
+    # Step 1: levels and the gradual variation condition (hop distance), per field
+    t = time.perf_counter()
+    checks = [check_gradual(G_hops, idx, vals[:, j], levels=levels, distance="hops") for j in range(vals.shape[1])]
+    strict = method == "gvf" or curve_values == "gvf"
+    for c in checks:
+        if strict and not c.holds:
+            raise SampleError(violation_message(c))
+    if distance == "length":
+        from .gradual import lipschitz_constant
+
+        report["lipschitz_length"] = [lipschitz_constant(G, idx, vals[:, j])[0] for j in range(vals.shape[1])]
+    report["check"] = [
+        {"holds": c.holds, "lipschitz_hops": c.lipschitz, "step": c.step, "levels": int(c.levels.size),
+         "violations": int(len(c.violations)), "level_error": c.level_error}
+        for c in checks
+    ]
+    seconds["check"] = time.perf_counter() - t
+    levels_out = [c.levels for c in checks]
+
+    def fit_gvf():
+        X = np.empty((n, vals.shape[1]))
+        for j, c in enumerate(checks):
+            lev = gvf(G_hops, idx, c.level)
+            X[:, j] = np.where(lev >= 0, c.levels[np.maximum(lev, 0)], np.nan)
+        return X
+
+    curves, components = [], np.zeros(n, dtype=np.int64)
+    fixed = np.zeros(n, dtype=bool)
+    fixed[idx] = True
+    if method == "gvf":
+        t = time.perf_counter()
+        X = fit_gvf()
+        seconds["gvf"] = time.perf_counter() - t
+        values = X
+    else:
+        if method == "gvf-harmonic":
+            # Steps 2-3: partition; Step 4: values on the curves
+            t = time.perf_counter()
+            part = _partition(V, F, idx, G, method=partition)
+            seconds["partition"] = time.perf_counter() - t
+            report["partition"] = part.report
+            curves, components, fixed = part.curves, part.labels, part.on_curve.copy()
+            t = time.perf_counter()
+            if curve_values == "gvf":
+                cols = [_curve_values(V, part.curve_edges(), idx, None, method="gvf",
+                                     levels=c.levels, level=c.level) for c in checks]
+                b, bc = cols[0][0], np.column_stack([cv for _, cv in cols])
+            else:
+                b, bc = _curve_values(V, part.curve_edges(), idx, vals, method=curve_values, F=F,
+                                      curves=part.curves, ends=part.ends)
+            seconds["curve_values"] = time.perf_counter() - t
+        else:
+            b, bc = idx, vals
+        # Steps 5-6: harmonic fill of every patch
+        t = time.perf_counter()
+        hs = HarmonicSolver(V, F, b, weights=weights, solver=solver, on_empty=on_empty,
+                            iteration=iteration, tol=tol, maxiter=maxiter)
+        x0 = None
+        if hs.report["solver"] == "iterate":
+            if init == "gvf":
+                x0 = fit_gvf()
+            elif init == "random":
+                rng = np.random.default_rng(seed)
+                lo, hi = vals.min(axis=0), vals.max(axis=0)
+                x0 = lo + (hi - lo) * rng.random((n, vals.shape[1]))
+        values = hs.solve(bc, x0=x0)
+        values = values if values.ndim == 2 else values[:, None]
+        seconds["harmonic"] = time.perf_counter() - t
+        report["harmonic"] = {k: v for k, v in hs.report.items() if k != "seconds"}
+        report["harmonic"]["seconds"] = dict(hs.report["seconds"])
+    seconds["total"] = time.perf_counter() - t0
+    return Reconstruction(
+        values=values[:, 0] if squeeze else values,
+        curves=curves,
+        components=components,
+        on_curve=fixed,
+        levels=levels_out,
+        report=report,
+    )

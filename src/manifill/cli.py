@@ -1,7 +1,8 @@
 """The ``manifill`` command line: a thin shell over the library.
 
-Subcommands: ``info`` (what is in a mesh), ``harmonic`` (fill a field from samples),
-``demo`` (the built-in example). Bad input ends with exit code 2 and one line
+Subcommands: ``info`` (what is in a mesh), ``check`` (the gradual variation
+condition of samples), ``reconstruct`` (the paper's pipeline), ``harmonic`` (fill a
+field from the samples alone), ``demo`` (the built-in example). Bad input ends with exit code 2 and one line
 ``manifill: error: ...`` on standard error, never a traceback; nothing is left
 half-written.
 """
@@ -18,7 +19,11 @@ import numpy as np
 from . import __version__
 from .errors import ManifillError, SampleError
 from .harmonic import ON_EMPTY, HarmonicSolver
+from .curves import CURVE_VALUES
+from .geodesic import DISTANCES
 from .laplacian import WEIGHTS
+from .partition import PARTITIONS
+from .reconstruct import METHODS
 from .solvers import SOLVERS
 
 __all__ = ["main"]
@@ -54,6 +59,35 @@ def _load(args):
     return V, F, S
 
 
+def _check_output(path):
+    """The output path, checked before any work is done."""
+    from .io import MESH_FORMATS, VALUE_FORMATS
+    from .errors import WriteError
+
+    out = Path(path)
+    ext = out.suffix.lower()
+    if ext not in VALUE_FORMATS and not (ext in MESH_FORMATS and MESH_FORMATS[ext][1]):
+        raise WriteError(f"{out.name}: the output must be .ply, .vtu or .vtk (mesh with fields) or .csv/.npy (values)")
+    if not out.parent.is_dir():
+        raise WriteError(f"folder {out.parent} does not exist; create it first or choose another output path")
+    return out
+
+
+def _write_with_masks(out, V, F, fields, extra, idx):
+    """Write the fields plus label fields (a sample mask, curve mask, components) under free names."""
+    from .io import write_mesh
+
+    fixed = np.zeros(len(V), dtype=bool)
+    fixed[idx] = True
+    for base, arr in [("fixed", fixed), *extra.items()]:
+        name = next(m for m in (base, f"{base}_mask", f"manifill_{base}") if m not in fields)
+        fields[name] = arr
+    written = write_mesh(out, V, F, fields)
+    renamed = {a: b for a, b in written.items() if a != b}
+    if renamed:
+        print("note: fields renamed for the format: " + ", ".join(f"{a!r} -> {b!r}" for a, b in renamed.items()))
+
+
 def cmd_info(args):
     """``manifill info MESH``."""
     from .io import read_mesh
@@ -87,14 +121,10 @@ def cmd_info(args):
 
 def cmd_harmonic(args):
     """``manifill harmonic MESH SAMPLES -o OUT``."""
-    from .io import MESH_FORMATS, VALUE_FORMATS, write_mesh, write_values
+    from .io import VALUE_FORMATS, write_values
 
-    out = Path(args.output)
+    out = _check_output(args.output)
     ext = out.suffix.lower()
-    if ext not in VALUE_FORMATS and not (ext in MESH_FORMATS and MESH_FORMATS[ext][1]):
-        return _err(f"{out.name}: the output must be .ply, .vtu or .vtk (mesh with fields) or .csv/.npy (values)")
-    if not out.parent.is_dir():
-        return _err(f"folder {out.parent} does not exist; create it first or choose another output path")
     V, F, S = _load(args)
     t0 = time.perf_counter()
     solver = HarmonicSolver(V, F, S.idx, weights=args.weights, solver=args.solver, on_empty=args.on_empty)
@@ -104,14 +134,7 @@ def cmd_harmonic(args):
         write_values(out, X, S.names)
     else:
         fields = {name: X[:, j] for j, name in enumerate(S.names)}
-        fixed = np.zeros(len(V), dtype=bool)
-        fixed[S.idx] = True
-        mask_name = next(m for m in ("fixed", "fixed_mask", "manifill_fixed") if m not in fields)
-        fields[mask_name] = fixed
-        written = write_mesh(out, V, F, fields)
-        renamed = {a: b for a, b in written.items() if a != b}
-        if renamed:
-            print("note: fields renamed for the format: " + ", ".join(f"{a!r} -> {b!r}" for a, b in renamed.items()))
+        _write_with_masks(out, V, F, fields, {}, S.idx)
     rep = solver.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})"
           + (f", {S.merged} merged" if S.merged else ""))
@@ -133,6 +156,95 @@ def cmd_harmonic(args):
     return 0
 
 
+def _levels(text):
+    """``--levels``: a count, or comma-separated explicit levels."""
+    if text is None:
+        return None
+    try:
+        if "," in text:
+            return np.array([float(t) for t in text.split(",") if t.strip()])
+        return int(text)
+    except ValueError:
+        raise SampleError(f"--levels {text!r} is neither a count nor a comma-separated list of numbers") from None
+
+
+def cmd_check(args):
+    """``manifill check MESH SAMPLES``: exit 0 if the condition holds, 1 if not."""
+    from .geodesic import mesh_graph
+    from .gradual import check_gradual
+    from .validate import as_mesh
+
+    V, F, S = _load(args)
+    V, F = as_mesh(V, F, allow_degenerate=True)
+    G = mesh_graph(V, F, distance=args.distance)
+    t0 = time.perf_counter()
+    checks = [check_gradual(G, S.idx, S.vals[:, j], levels=_levels(args.levels), distance=args.distance)
+              for j in range(S.vals.shape[1])]
+    seconds = time.perf_counter() - t0
+    unit = "hop" if args.distance == "hops" else "mean edge length"
+    print(f"{len(V):,} vertices, {S.idx.size:,} samples; distance: {args.distance}; checked in {seconds:.2f} s")
+    for name, c in zip(S.names, checks):
+        step = f", step {c.step:.6g}" if c.step is not None else ""
+        print(f"{name}: {c.levels.size} levels from {c.levels[0]:.6g} to {c.levels[-1]:.6g}{step}; "
+              f"largest move onto a level {c.level_error:.3g}")
+        p, q = c.lipschitz_pair
+        print(f"  Lipschitz constant {c.lipschitz:.6g} per {unit}" + (f" (vertices {p} and {q})" if p >= 0 else ""))
+        if c.holds:
+            print("  gradual variation condition: holds")
+        else:
+            print(f"  gradual variation condition: FAILS for {len(c.violations)} samples "
+                  f"(vertex p, worst partner q, distance, levels apart):")
+            worst = c.violations[np.argsort(c.violations[:, 2] - c.violations[:, 3])]
+            for p, q, d, k in worst[:10]:
+                print(f"    {int(p):>8} {int(q):>8} {d:>10.4g} {int(k):>6}")
+            if len(worst) > 10:
+                print(f"    ... and {len(worst) - 10} more")
+    return 0 if all(c.holds for c in checks) else 1
+
+
+def cmd_reconstruct(args):
+    """``manifill reconstruct MESH SAMPLES -o OUT``."""
+    from .io import write_values
+    from .reconstruct import reconstruct
+
+    out = _check_output(args.output)
+    V, F, S = _load(args)
+    r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
+                    distance=args.distance, levels=_levels(args.levels), curve_values=args.curve_values,
+                    solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates)
+    X = r.values if r.values.ndim == 2 else r.values[:, None]
+    if out.suffix.lower() in (".csv", ".npy"):
+        write_values(out, X, S.names)
+    else:
+        fields = {name: X[:, j] for j, name in enumerate(S.names)}
+        extra = {"curve": r.on_curve, "component": r.components}
+        _write_with_masks(out, V, F, fields, extra, S.idx)
+    rep = r.report
+    print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
+    if S.snap_distance is not None:
+        print(f"snapped positions to vertices: largest distance {S.snap_distance.max():.3g}")
+    for name, c in zip(S.names, rep["check"]):
+        state = "holds" if c["holds"] else f"fails for {c['violations']} samples"
+        print(f"step 1 ({name}): {c['levels']} levels, Lipschitz {c['lipschitz_hops']:.4g} per hop; "
+              f"gradual variation {state}")
+    if "partition" in rep:
+        pr = rep["partition"]
+        print(f"steps 2-3: {pr['method']} partition, {pr['curves']} curves through {pr['curve_vertices']:,} "
+              f"vertices, {pr['patches']} patches (largest {max(pr['patch_sizes'] or [0]):,})")
+    if "harmonic" in rep:
+        h = rep["harmonic"]
+        its = h.get("iterations")
+        print(f"steps 5-6: harmonic fill, weights={h['weights']}, solver={h['solver']}"
+              + (f", {', '.join(map(str, its))} iterations" if its else ""))
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in rep["seconds"].items()))
+    lo, hi = np.nanmin(X, axis=0), np.nanmax(X, axis=0)
+    for j, name in enumerate(S.names):
+        print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{S.vals[:, j].min():.6g}, "
+              f"{S.vals[:, j].max():.6g}])")
+    print(f"wrote {out}")
+    return 0
+
+
 def cmd_demo(args):
     """``manifill demo``."""
     from .demo import run_demo
@@ -140,6 +252,19 @@ def cmd_demo(args):
     report = run_demo(args.output)
     print(report["text"])
     return 0
+
+
+def _sample_args(s):
+    """MESH SAMPLES and the options of reading them, shared by the subcommands."""
+    s.add_argument("mesh", help="mesh file (.off .obj .ply .stl .vtk .vtu)")
+    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy")
+    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
+                   help="two samples on one vertex with different values: error (default) or average")
+    s.add_argument("--max-snap", type=float, default=None,
+                   help="largest accepted distance from a sample position to its vertex "
+                        "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
+    s.add_argument("--clean", action="store_true",
+                   help="weld coinciding vertices and drop unused vertices and zero-area faces first")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -170,22 +295,43 @@ def build_parser():
     s = sub.add_parser("harmonic", help="fill a field harmonically from samples",
                        description="Fix the sample values at their vertices and fill every other vertex "
                                    "with the weighted average of its neighbours (discrete harmonic).")
-    s.add_argument("mesh", help="mesh file (.off .obj .ply .stl .vtk .vtu)")
-    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy")
+    _sample_args(s)
     s.add_argument("-o", "--output", required=True,
                    help="output: .ply/.vtu/.vtk (mesh with named fields) or .csv/.npy (values)")
     s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
     s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
                    help="a component without samples: error (default) or fill with NaN")
-    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
-                   help="two samples on one vertex with different values: error (default) or average")
-    s.add_argument("--max-snap", type=float, default=None,
-                   help="largest accepted distance from a sample position to its vertex "
-                        "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
-    s.add_argument("--clean", action="store_true",
-                   help="weld coinciding vertices and drop unused vertices and zero-area faces first")
     s.set_defaults(func=cmd_harmonic)
+
+    s = sub.add_parser("check", help="check the gradual variation condition of samples (Step 1)",
+                       description="Choose value levels, report the Lipschitz constant and any sample pairs "
+                                   "that break the gradual variation condition d(p, q) >= |i_p - i_q|. Exit "
+                                   "status 0 when it holds, 1 when it does not, 2 on bad input.")
+    _sample_args(s)
+    s.add_argument("--levels", default=None,
+                   help="a count of uniform levels, or comma-separated levels (default: the finest step that works)")
+    s.add_argument("--distance", choices=DISTANCES, default="hops", help="graph distance (default: hops)")
+    s.set_defaults(func=cmd_check)
+
+    s = sub.add_parser("reconstruct", help="the paper's reconstruction: partition, curve values, harmonic patches",
+                       description="Reconstruct a field from samples: check the gradual variation condition, "
+                                   "cut the surface by curves through every sample, give the curves values and "
+                                   "fill every patch harmonically. Writes the field, the curve mask and the "
+                                   "patch labels.")
+    _sample_args(s)
+    s.add_argument("-o", "--output", required=True,
+                   help="output: .ply/.vtu/.vtk (mesh with named fields) or .csv/.npy (values)")
+    s.add_argument("--method", choices=METHODS, default="gvf-harmonic", help="default: gvf-harmonic")
+    s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
+    s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
+    s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
+    s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
+    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
+    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
+    s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
+                   help="a component without samples: error (default) or fill with NaN")
+    s.set_defaults(func=cmd_reconstruct)
 
     s = sub.add_parser("demo", help="run the built-in example (nothing downloaded)",
                        description="Reconstruct a known field on a generated sphere, write the results "

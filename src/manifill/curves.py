@@ -16,10 +16,10 @@ path vertices are joined). Two ways to fill it:
     leaves the range of the samples.
 ``hermite``
     Cubic in arc length along each path, matching the samples' values at both
-    ends and slopes taken from a gradient estimated at every sample: a
-    least-squares quadratic (or, with fewer than six, linear) fit to the samples
-    it is joined to, in its tangent plane, each placed at its path's arc length
-    along the path's initial direction. Exact for linear fields on flat meshes;
+    ends and slopes taken from a gradient estimated at every sample: a weighted
+    least-squares fit, in its tangent plane, to the samples within two steps of
+    it in the curve network (quadratic with eight or more well-spread ones,
+    linear otherwise). Exact for linear fields on flat meshes;
     much closer than ``linear`` on smooth fields (the error on the curves
     dominates the reconstruction's), but a cubic can overshoot the samples'
     range. Vertices shared by several paths take the mean of their values.
@@ -105,7 +105,7 @@ def _gradients(V, normals, ends, idx, vals):
     A weighted least-squares fit at each sample to the samples within two
     steps of it in the curve network (its neighbours and theirs), placed by
     their offsets projected onto its tangent plane: quadratic where eight or
-    more are well spread, linear otherwise.
+    more are well spread, linear (minimum-norm) otherwise.
     """
     k, p = vals.shape
     pos = np.searchsorted(idx, ends)
@@ -133,10 +133,8 @@ def _gradients(V, normals, ends, idx, vals):
             if np.linalg.cond(Qw) < 1e8:
                 coef = np.linalg.lstsq(Qw, Y * sw[:, None], rcond=None)[0]
         if coef is None:
-            Dw = D * sw[:, None]
-            if np.linalg.cond(Dw) > 1e8:
-                continue
-            coef = np.linalg.lstsq(Dw, Y * sw[:, None], rcond=None)[0]
+            # minimum-norm when the neighbours line up: exact along that line
+            coef = np.linalg.lstsq(D * sw[:, None], Y * sw[:, None], rcond=1e-8)[0]
         grads[i] = np.outer(e1, coef[0]) + np.outer(e2, coef[1])
     return grads
 
@@ -180,7 +178,8 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
     idx : (k,) numpy array of int
         Sample vertices (all on the curves).
     vals : (k,) or (k, p) numpy array of float
-        Sample values (``linear``).
+        Sample values (for ``gvf``: one column; the samples keep them, every
+        other curve vertex gets a level).
     method : {'linear', 'gvf'}, optional
         See the module docstring.
     levels : (m,) numpy array, optional
@@ -215,7 +214,9 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
     if method == "gvf":
         G = curve_graph(V, edges, n, distance="hops")
         fit = gvf(G, idx, level)
-        return cv, np.asarray(levels)[fit[cv]]
+        out = np.asarray(levels)[fit[cv]]
+        out[np.searchsorted(cv, idx)] = vals if vals is not None else out[np.searchsorted(cv, idx)]
+        return cv, out
     vals = np.asarray(vals, dtype=np.float64)
     squeeze = vals.ndim == 1
     vals2 = vals[:, None] if squeeze else vals

@@ -98,9 +98,9 @@ def offset_distances(G, sources, offsets):
         Position in ``sources`` of the source attaining the minimum (``-1``
         where unreachable).
     pred : (n,) int numpy array
-        Predecessor of each vertex on its shortest path (``-9999`` at sources
-        and unreachable vertices): following it from ``x`` leads to
-        ``sources[root[x]]``.
+        Predecessor of each vertex on its shortest path (``-9999`` where the
+        path starts, i.e. at a source that is its own root, and at unreachable
+        vertices): following it from ``x`` leads to ``sources[root[x]]``.
 
     Examples
     --------

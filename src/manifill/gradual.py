@@ -83,13 +83,14 @@ def lipschitz_constant(G, idx, vals):
     # start just below the answer: the steepest pair of neighbouring Voronoi
     # cells, over an upper bound of their distance
     p, q, length = voronoi_pairs(G, idx)[:3]
-    pair, passes = (-1, -1), 1
-    K = float(np.ptp(vals)) / max(float(G.data.sum()), 1.0)
-    if p.size:
-        ratio = np.abs(vals[p] - vals[q]) / length
-        j = int(np.argmax(ratio))
-        if ratio[j] > K:
-            K, pair = float(ratio[j]), (int(p[j]), int(q[j]))
+    if p.size == 0:
+        return 0.0, (-1, -1), 1  # no two samples share a component
+    ratio = np.abs(vals[p] - vals[q]) / length
+    j = int(np.argmax(ratio))
+    K, pair, passes = float(ratio[j]), (int(p[j]), int(q[j])), 1
+    if K == 0:
+        # neighbouring cells agree everywhere, so every component is constant
+        return 0.0, (-1, -1), passes
     while True:
         passes += 1
         U, root, _ = offset_distances(G, idx, vals / K)
@@ -435,13 +436,16 @@ def lipschitz_extension(G, idx, vals, *, kind="midpoint", K=None):
     if K is None:
         K = lipschitz_constant(G, idx, vals)[0]
     if K <= 0:
-        U = np.full(G.shape[0], float(vals[0]))
-        reach = np.isfinite(offset_distances(G, idx, np.zeros(idx.size))[0])
-        U[~reach] = np.nan
-        return U
+        # constant on each component: the value of its samples
+        d, root, _ = offset_distances(G, idx, np.zeros(idx.size))
+        out = np.where(np.isfinite(d), vals[np.maximum(root, 0)], np.nan)
+        out[idx] = vals
+        return out
     up = K * offset_distances(G, idx, vals / K)[0]
-    lo = -K * offset_distances(G, idx, -vals / K)[0]
+    reach = np.isfinite(up)
+    lo = np.full(up.shape, np.nan)
+    lo[reach] = -K * offset_distances(G, idx, -vals / K)[0][reach]
+    up[~reach] = np.nan
     out = {"whitney": up, "mcshane": lo, "midpoint": (up + lo) / 2}[kind]
-    out[~np.isfinite(up)] = np.nan
     out[idx] = vals
     return out

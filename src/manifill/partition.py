@@ -109,8 +109,6 @@ def _tree_paths(G, idx):
 def _cycle_paths(V, G, idx):
     """Nearest-neighbour chain of the samples by shortest paths, closed into a cycle."""
     k = idx.size
-    if k < 2:
-        return [], np.empty((0, 2), np.int64)
     G = sp.csr_array(G, copy=True)
     # entries of G by column, to make vertices on the curve expensive to cross
     by_col = np.argsort(G.indices, kind="stable")
@@ -121,30 +119,34 @@ def _cycle_paths(V, G, idx):
         for v in vertices:
             G.data[by_col[colptr[v]:colptr[v + 1]]] = penalty
 
-    # visiting order: greedy nearest neighbour in space, from the first sample
-    P = V[idx]
-    order = [0]
-    left = np.ones(k, dtype=bool)
-    left[0] = False
-    for _ in range(k - 1):
-        d = np.linalg.norm(P - P[order[-1]], axis=1)
-        d[~left] = np.inf
-        j = int(np.argmin(d))
-        order.append(j)
-        left[j] = False
-    order.append(0)
+    # one cycle per mesh component; visiting order: greedy nearest neighbour in space
+    _, comp = csgraph.connected_components(G, directed=False)
     curves, ends = [], []
-    block([idx[order[0]]])
-    for a, b in zip(order[:-1], order[1:]):
-        src, dst = idx[a], idx[b]
-        _, pred = csgraph.dijkstra(G, indices=src, return_predecessors=True)
-        path = trace(pred, dst)[::-1]
-        curves.append(path)
-        ends.append((src, dst))
-        block(path[1:])
-        if k == 2:
-            break
-    return curves, np.array(ends, dtype=np.int64)
+    P = V[idx]
+    for c in np.unique(comp[idx]):
+        members = np.flatnonzero(comp[idx] == c)
+        if members.size < 2:
+            continue
+        order = [members[0]]
+        left = np.zeros(k, dtype=bool)
+        left[members[1:]] = True
+        for _ in range(members.size - 1):
+            d = np.linalg.norm(P - P[order[-1]], axis=1)
+            d[~left] = np.inf
+            j = int(np.argmin(d))
+            order.append(j)
+            left[j] = False
+        if members.size > 2:
+            order.append(order[0])
+        block([idx[order[0]]])
+        for a, b in zip(order[:-1], order[1:]):
+            src, dst = idx[a], idx[b]
+            _, pred = csgraph.dijkstra(G, indices=src, return_predecessors=True)
+            path = trace(pred, dst)[::-1]
+            curves.append(path)
+            ends.append((src, dst))
+            block(path[1:])
+    return curves, np.array(ends, dtype=np.int64).reshape(-1, 2)
 
 
 def partition(V, F, idx, G, *, method="delaunay"):

@@ -64,7 +64,7 @@ class Reconstruction:
 
 
 def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
-                distance="length", levels=None, curve_values="linear", solver="auto",
+                distance="length", levels=None, curve_values="hermite", solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
                 tol=None, maxiter=None):
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
@@ -81,7 +81,8 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         Sample values, one column per field.
     method : {'gvf-harmonic', 'harmonic', 'gvf'}, optional
         The whole pipeline; harmonic with the samples alone fixed; or the
-        gradually varied fit of the whole surface (values on the levels).
+        gradually varied fit of the whole surface (every vertex but the
+        samples on a level).
     partition : {'delaunay', 'cycle', 'tree'}, optional
         How the curves are drawn (:mod:`manifill.partition`).
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
@@ -93,8 +94,12 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         by default the finest uniform step at which the samples satisfy the
         condition. With ``curve_values='gvf'`` or ``method='gvf'`` a
         violation is an error; otherwise it is reported.
-    curve_values : {'linear', 'gvf'}, optional
-        Step 4 (:mod:`manifill.curves`).
+    curve_values : {'hermite', 'linear', 'gvf'}, optional
+        Step 4 (:mod:`manifill.curves`): cubic along each path with slopes
+        from estimated gradients (the most accurate on smooth fields; may
+        overshoot slightly, reported as ``report['overshoot']``), linear in arc
+        length (never leaves the samples' range), or the paper's gradually
+        varied fit on the levels.
     solver : {'auto', 'direct', 'amg', 'iterate'}, optional
         Linear solver of the harmonic fill.
     on_empty : {'error', 'nan'}, optional
@@ -175,10 +180,12 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     levels_out = [c.levels for c in checks]
 
     def fit_gvf():
+        """GVF of the whole surface: levels everywhere, the samples' own values at the samples."""
         X = np.empty((n, vals.shape[1]))
         for j, c in enumerate(checks):
             lev = gvf(G_hops, idx, c.level)
             X[:, j] = np.where(lev >= 0, c.levels[np.maximum(lev, 0)], np.nan)
+        X[idx] = vals
         return X
 
     curves, components = [], np.zeros(n, dtype=np.int64)
@@ -188,6 +195,14 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         t = time.perf_counter()
         X = fit_gvf()
         seconds["gvf"] = time.perf_counter() - t
+        empty = np.isnan(X[:, 0])
+        if empty.any() and on_empty == "error":
+            from .errors import SolveError
+
+            v = int(np.flatnonzero(empty)[0])
+            raise SolveError(
+                f"{int(empty.sum())} vertices (e.g. vertex {v}) lie in components without samples, so their "
+                f"values are undetermined; add a sample there, or pass on_empty='nan' to leave them NaN")
         values = X
     else:
         if method == "gvf-harmonic":
@@ -199,8 +214,8 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
             curves, components, fixed = part.curves, part.labels, part.on_curve.copy()
             t = time.perf_counter()
             if curve_values == "gvf":
-                cols = [_curve_values(V, part.curve_edges(), idx, None, method="gvf",
-                                     levels=c.levels, level=c.level) for c in checks]
+                cols = [_curve_values(V, part.curve_edges(), idx, vals[:, j], method="gvf",
+                                      levels=c.levels, level=c.level) for j, c in enumerate(checks)]
                 b, bc = cols[0][0], np.column_stack([cv for _, cv in cols])
             else:
                 b, bc = _curve_values(V, part.curve_edges(), idx, vals, method=curve_values, F=F,
@@ -225,6 +240,10 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         seconds["harmonic"] = time.perf_counter() - t
         report["harmonic"] = {k: v for k, v in hs.report.items() if k != "seconds"}
         report["harmonic"]["seconds"] = dict(hs.report["seconds"])
+    lo, hi = vals.min(axis=0), vals.max(axis=0)
+    X = values if values.ndim == 2 else values[:, None]
+    with np.errstate(invalid="ignore"):
+        report["overshoot"] = float(np.nanmax(np.maximum(X - hi, lo - X))) if np.isfinite(X).any() else 0.0
     seconds["total"] = time.perf_counter() - t0
     return Reconstruction(
         values=values[:, 0] if squeeze else values,

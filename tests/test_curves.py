@@ -1,0 +1,267 @@
+"""Step 4: values on the curve network, from the samples on it."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from conftest import edge_set, grid, icosphere, irregular, torus
+from manifill.curves import curve_values
+from manifill.errors import OptionError
+from manifill.geodesic import mesh_graph
+from manifill.gradual import check_gradual
+from manifill.partition import partition
+from manifill.shapes import grid as shapes_grid
+
+hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
+                     suppress_health_check=[HealthCheck.too_slow])
+
+MESHES = {
+    "icosphere2": lambda: icosphere(2),
+    "grid": lambda: grid(9),
+    "grid_right": lambda: grid(9, diagonal="right"),
+    "torus": torus,
+    "irregular": irregular,
+}
+_CACHE = {}
+
+
+def mesh(name):
+    if name not in _CACHE:
+        _CACHE[name] = MESHES[name]()
+    return _CACHE[name]
+
+
+def network(name, method, distance, seed, k):
+    V, F = mesh(name)
+    rng = np.random.default_rng(seed)
+    idx = np.sort(rng.choice(len(V), size=min(k, len(V)), replace=False))
+    part = partition(V, F, idx, mesh_graph(V, F, distance=distance), method=method)
+    return V, F, idx, part, rng
+
+
+networks = dict(name=st.sampled_from(sorted(MESHES)), method=st.sampled_from(["delaunay", "cycle", "tree"]),
+                distance=st.sampled_from(["hops", "length"]), seed=st.integers(0, 10**6), k=st.integers(1, 25))
+
+
+# ---------------------------------------------------------------------------
+# linear
+# ---------------------------------------------------------------------------
+
+
+@hsettings
+@given(seed=st.integers(0, 10**6), m=st.integers(2, 40), k=st.integers(1, 8))
+def test_linear_is_piecewise_linear_in_arc_length_along_one_path(seed, m, k):
+    rng = np.random.default_rng(seed)
+    P = np.cumsum(rng.uniform(-1.0, 1.0, size=(m, 3)) * rng.uniform(0.01, 3.0, size=(m, 1)), axis=0)
+    label = rng.permutation(m)  # path position j is vertex label[j]
+    V = np.empty_like(P)
+    V[label] = P
+    edges = np.column_stack([label[:-1], label[1:]])
+    pos = np.sort(rng.choice(m, size=min(k, m), replace=False))
+    vals = rng.uniform(-3.0, 3.0, size=pos.size)
+    order = rng.permutation(pos.size)
+    cv, x = curve_values(V, edges, label[pos][order], vals[order], method="linear")
+    np.testing.assert_array_equal(cv, np.arange(m))
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+    # linear between consecutive samples, constant beyond the outermost ones
+    np.testing.assert_allclose(x[label], np.interp(s, s[pos], vals), rtol=0, atol=1e-11)
+    np.testing.assert_array_equal(x[label[pos]], vals)
+    assert x.min() >= vals.min() - 1e-12 and x.max() <= vals.max() + 1e-12
+
+
+@hsettings
+@given(**networks)
+def test_linear_on_a_network_is_harmonic_on_the_curve_graph(name, method, distance, seed, k):
+    V, F, idx, part, rng = network(name, method, distance, seed, k)
+    vals = rng.uniform(-2.0, 5.0, size=idx.size)
+    E = part.curve_edges()
+    cv, x = curve_values(V, E, idx, vals, method="linear")
+    np.testing.assert_array_equal(cv, np.flatnonzero(part.on_curve))
+    value = dict(zip(cv.tolist(), x.tolist()))
+    for v, f in zip(idx.tolist(), vals.tolist()):
+        assert value[v] == f, "exact at the samples"
+    assert x.min() >= vals.min() - 1e-12 and x.max() <= vals.max() + 1e-12, "never leaves the sample range"
+    # away from the samples: the 1/length-weighted mean of the curve neighbours
+    total = {v: 0.0 for v in value}
+    weight = {v: 0.0 for v in value}
+    for i, j in E.tolist():
+        w = 1.0 / np.linalg.norm(V[i] - V[j])
+        total[i] += w * value[j]
+        weight[i] += w
+        total[j] += w * value[i]
+        weight[j] += w
+    samples = set(idx.tolist())
+    for v in value:
+        if v not in samples:
+            assert value[v] == pytest.approx(total[v] / weight[v], abs=1e-10)
+
+
+# ---------------------------------------------------------------------------
+# linear functions on a flat grid
+# ---------------------------------------------------------------------------
+
+N = 15
+
+
+def vid(i, j):
+    return j * N + i
+
+
+SAMPLES = {
+    "corners": [vid(0, 0), vid(14, 0), vid(0, 14), vid(14, 14)],
+    "corners_center": [vid(0, 0), vid(14, 0), vid(0, 14), vid(14, 14), vid(7, 7)],
+    "nine": [vid(i, j) for i in (0, 7, 14) for j in (0, 7, 14)],
+}
+
+
+def linear_field(X):
+    return 0.3 + 2.0 * X[:, 0] - 1.5 * X[:, 1] + 0.0 * X[:, 2]
+
+
+def straight(V, c):
+    d, e = V[c] - V[c[0]], V[c[-1]] - V[c[0]]
+    return np.abs(np.cross(d, e)).max() < 1e-12
+
+
+def spread_neighbourhoods(V, idx, ends):
+    """Every sample is joined (within two curve steps) to samples not all on one line through it."""
+    pos = {int(v): i for i, v in enumerate(idx)}
+    A = [set() for _ in idx]
+    for a, b in ends.tolist():
+        A[pos[a]].add(pos[b])
+        A[pos[b]].add(pos[a])
+    for i in range(len(idx)):
+        nb = (A[i] | {j for m in A[i] for j in A[m]}) - {i}
+        D = V[idx[sorted(nb)]] - V[idx[i]]
+        if np.linalg.matrix_rank(D[:, :2], tol=1e-9) < 2:
+            return False
+    return True
+
+
+# (diagonal, samples, partition) where every curve is a straight vertex path
+STRAIGHT = [
+    ("alternate", "corners", "delaunay"), ("alternate", "corners", "cycle"), ("alternate", "corners", "tree"),
+    ("alternate", "corners_center", "delaunay"), ("alternate", "corners_center", "cycle"),
+    ("alternate", "nine", "delaunay"), ("alternate", "nine", "cycle"), ("alternate", "nine", "tree"),
+    ("right", "corners", "delaunay"), ("right", "corners", "cycle"), ("right", "corners", "tree"),
+    ("right", "nine", "delaunay"), ("right", "nine", "cycle"), ("right", "nine", "tree"),
+]
+
+
+def grid_network(diagonal, samples, method):
+    V, F = shapes_grid(N, diagonal=diagonal)
+    idx = np.sort(SAMPLES[samples])
+    part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method=method)
+    return V, F, idx, part
+
+
+@pytest.mark.parametrize("diagonal, samples, method", STRAIGHT)
+def test_linear_reproduces_a_linear_field_on_straight_curves(diagonal, samples, method):
+    V, F, idx, part = grid_network(diagonal, samples, method)
+    assert all(straight(V, c) for c in part.curves), "precondition: straight paths"
+    cv, x = curve_values(V, part.curve_edges(), idx, linear_field(V[idx]), method="linear")
+    np.testing.assert_allclose(x, linear_field(V[cv]), rtol=0, atol=1e-10)
+
+
+# the tree through nine samples joins a corner only to samples on one line: test_hermite_with_a_collinear_...
+SPREAD = [case for case in STRAIGHT if case[1:] != ("nine", "tree")]
+
+
+@pytest.mark.parametrize("diagonal, samples, method", SPREAD)
+def test_hermite_reproduces_a_linear_field_on_straight_curves(diagonal, samples, method):
+    V, F, idx, part = grid_network(diagonal, samples, method)
+    assert all(straight(V, c) for c in part.curves), "precondition: straight paths"
+    assert spread_neighbourhoods(V, idx, part.ends), "precondition: gradients determined by the samples"
+    cv, x = curve_values(V, part.curve_edges(), idx, linear_field(V[idx]), method="hermite", F=F,
+                         curves=part.curves, ends=part.ends)
+    np.testing.assert_allclose(x, linear_field(V[cv]), rtol=0, atol=1e-10)
+
+
+def test_hermite_with_a_collinear_sample_neighbourhood():
+    V, F, idx, part = grid_network("alternate", "nine", "tree")
+    assert all(straight(V, c) for c in part.curves)
+    assert not spread_neighbourhoods(V, idx, part.ends)
+    cv, x = curve_values(V, part.curve_edges(), idx, linear_field(V[idx]), method="hermite", F=F,
+                         curves=part.curves, ends=part.ends)
+    np.testing.assert_allclose(x, linear_field(V[cv]), rtol=0, atol=1e-10)
+
+
+@hsettings
+@given(**networks)
+def test_hermite_is_exact_at_the_samples(name, method, distance, seed, k):
+    V, F, idx, part, rng = network(name, method, distance, seed, k)
+    vals = rng.uniform(-2.0, 5.0, size=idx.size)
+    cv, x = curve_values(V, part.curve_edges(), idx, vals, method="hermite", F=F, curves=part.curves,
+                         ends=part.ends)
+    np.testing.assert_array_equal(cv, np.flatnonzero(part.on_curve))
+    assert np.isfinite(x).all()
+    np.testing.assert_array_equal(x[np.searchsorted(cv, idx)], vals)
+
+
+# ---------------------------------------------------------------------------
+# gvf
+# ---------------------------------------------------------------------------
+
+
+@hsettings
+@given(**networks)
+def test_gvf_values_are_levels_changing_by_one_per_curve_edge(name, method, distance, seed, k):
+    V, F, idx, part, rng = network(name, method, distance, seed, k)
+    vals = rng.uniform(-2.0, 5.0, size=idx.size)
+    check = check_gradual(mesh_graph(V, F), idx, vals)
+    assert check.holds
+    E = part.curve_edges()
+    cv, x = curve_values(V, E, idx, None, method="gvf", levels=check.levels, level=check.level)
+    np.testing.assert_array_equal(cv, np.flatnonzero(part.on_curve))
+    where = np.searchsorted(check.levels, x)
+    assert np.all(where < check.levels.size) and np.array_equal(check.levels[where], x), "values on the levels"
+    level = np.full(len(V), -1)
+    level[cv] = where
+    np.testing.assert_array_equal(level[idx], check.level)
+    if len(E):
+        assert np.abs(level[E[:, 0]] - level[E[:, 1]]).max() <= 1
+
+
+def test_gvf_curve_values_equal_the_samples_at_the_samples():
+    V, F = icosphere(2)
+    rng = np.random.default_rng(0)
+    idx = np.sort(rng.choice(len(V), size=10, replace=False))
+    vals = rng.standard_normal(10)
+    check = check_gradual(mesh_graph(V, F), idx, vals)
+    assert check.level_error > 0.1
+    part = partition(V, F, idx, mesh_graph(V, F, distance="length"))
+    cv, x = curve_values(V, part.curve_edges(), idx, vals, method="gvf", levels=check.levels, level=check.level)
+    np.testing.assert_allclose(x[np.searchsorted(cv, idx)], vals)
+
+
+# ---------------------------------------------------------------------------
+# several fields, options
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["linear", "hermite"])
+@pytest.mark.parametrize("name", ["icosphere2", "irregular", "torus"])
+def test_columns_are_independent(method, name):
+    V, F, idx, part, rng = network(name, "delaunay", "length", seed=4, k=12)
+    vals = rng.uniform(-1.0, 1.0, size=(idx.size, 3))
+    kw = dict(method=method, F=F, curves=part.curves, ends=part.ends)
+    cv, X = curve_values(V, part.curve_edges(), idx, vals, **kw)
+    assert X.shape == (cv.size, 3)
+    for j in range(3):
+        cvj, xj = curve_values(V, part.curve_edges(), idx, vals[:, j], **kw)
+        np.testing.assert_array_equal(cvj, cv)
+        assert xj.shape == (cv.size,)
+        np.testing.assert_allclose(X[:, j], xj, rtol=0, atol=1e-12)
+
+
+def test_docstring_example_by_hand():
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [3, 0, 0], [4, 0, 0]])
+    cv, x = curve_values(V, np.array([[0, 1], [1, 2], [2, 3]]), np.array([0, 3]), np.array([0.0, 8.0]))
+    assert cv.tolist() == [0, 1, 2, 3] and x.tolist() == [0.0, 2.0, 6.0, 8.0]
+
+
+def test_unknown_method_raises():
+    V, F = grid(3)
+    with pytest.raises(OptionError):
+        curve_values(V, np.array(sorted(edge_set(F))), np.array([0, 8]), np.array([0.0, 1.0]), method="spline")

@@ -64,7 +64,8 @@ def main(argv=None):
             z = igl.harmonic(V, F64, b, bc[:, None], 1).ravel()
             t_igl.append(time.perf_counter() - t0)
     print("manifill steps (last run):", {k: round(v, 3) for k, v in solver.report["seconds"].items()},
-          "iterations", solver.report.get("iterations"), "solver", solver.report["solver"])
+          "iterations", solver.report.get("iterations"), "solver", solver.report["solver"],
+          "blocks", solver.report.get("blocks"))
     print(f"manifill.HarmonicSolver + solve: best {min(t_mf):.2f} s  (runs: {', '.join(f'{t:.2f}' for t in t_mf)})")
     if igl is not None:
         rel = np.linalg.norm(x - z) / np.linalg.norm(z)

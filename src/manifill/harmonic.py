@@ -21,6 +21,29 @@ __all__ = ["HarmonicSolver", "harmonic"]
 ON_EMPTY = ("error", "nan")
 
 
+def _components(L, symmetric_pattern):
+    """Connected components of the pattern of ``L``: ``(count, labels)``.
+
+    Labels are numbered in the order of each component's first vertex, as by
+    ``scipy.sparse.csgraph.connected_components(L, directed=False)``, which
+    builds ``L``'s transpose first. When the pattern is known to be symmetric
+    (``uniform`` and ``cotan`` assemble both ``(i, j)`` and ``(j, i)`` for every
+    edge), a search on ``L`` alone (pyamg's kernel) finds the same components
+    in a fraction of the time. Stored zeros count as connections in both.
+    """
+    if not symmetric_pattern:
+        ncomp, labels = csgraph.connected_components(L, directed=False)
+        return int(ncomp), labels
+    from pyamg.amg_core import connected_components
+
+    n = L.shape[0]
+    indptr = np.asarray(L.indptr)
+    indices = np.asarray(L.indices).astype(indptr.dtype, copy=False)
+    labels = np.empty(n, dtype=indptr.dtype)
+    ncomp = connected_components(n, indptr, indices, labels) if n else 0
+    return int(ncomp), labels
+
+
 class HarmonicSolver:
     """Harmonic extension from a fixed vertex set, precomputed once, solved many times.
 
@@ -100,7 +123,7 @@ class HarmonicSolver:
         L = _laplacian(V, F, weights)
         t2 = time.perf_counter()
         self.L = L
-        ncomp, labels = csgraph.connected_components(L, directed=False)
+        ncomp, labels = _components(L, symmetric_pattern=weights in ("uniform", "cotan"))
         has_fixed = np.bincount(labels[self.b], minlength=ncomp) > 0
         self.empty = ~has_fixed[labels]
         empty_components = []
@@ -125,7 +148,10 @@ class HarmonicSolver:
         self._L_Ib = rows[:, self.b].tocsr()
         t3 = time.perf_counter()
         self._solver = make_linear_solver(self._L_II, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter)
-        offdiag = L.data[L.indices != np.repeat(np.arange(n), np.diff(L.indptr))]
+        if L.has_canonical_format:  # one stored entry per position: count the diagonal's apart
+            positive = np.count_nonzero(L.data > 0) - np.count_nonzero(L.diagonal() > 0)
+        else:
+            positive = np.count_nonzero(L.data[L.indices != np.repeat(np.arange(n), np.diff(L.indptr))] > 0)
         self.report = {
             "vertices": n,
             "fixed": int(self.b.size),
@@ -133,7 +159,7 @@ class HarmonicSolver:
             "components": int(ncomp),
             "empty_components": empty_components,
             "weights": weights,
-            "negative_weights": int(np.count_nonzero(offdiag > 0)) // 2,
+            "negative_weights": int(positive) // 2,
             "solver": self._solver.name,
             "seconds": {
                 "validate": t1 - t0,

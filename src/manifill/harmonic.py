@@ -9,9 +9,10 @@ this is the sparse symmetric positive definite system ``L_II x_I = -L_Ib bc``.
 import time
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .errors import SolveError
+from .errors import SampleError, SolveError
 from .laplacian import WEIGHTS, _laplacian
 from .solvers import make_linear_solver
 from .validate import as_indices, as_mesh, as_values, check_option
@@ -116,14 +117,61 @@ class HarmonicSolver:
         check_option("on_empty", on_empty, ON_EMPTY)
         check_option("weights", weights, WEIGHTS)
         V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
-        n = len(V)
-        self.b = as_indices(b, n, what="b")
-        self.n = n
+        b = as_indices(b, len(V), what="b")
         t1 = time.perf_counter()
         L = _laplacian(V, F, weights)
         t2 = time.perf_counter()
+        self._setup(L, b, weights, solver, on_empty, iteration, tol, maxiter,
+                    {"validate": t1 - t0, "laplacian": t2 - t1})
+
+    @classmethod
+    def from_laplacian(cls, L, b, *, solver="auto", on_empty="error", iteration="gauss-seidel",
+                       tol=None, maxiter=None, symmetric_pattern=False):
+        """Harmonic extension for a given Laplacian (a mesh's, a graph's, your own).
+
+        Parameters
+        ----------
+        L : (n, n) scipy sparse matrix
+            Symmetric positive semi-definite, ``L = D - W`` (e.g. from
+            :func:`manifill.laplacian`).
+        b : (k,) array_like of int
+            Fixed vertices, each listed once.
+        solver, on_empty, iteration, tol, maxiter
+            As for the class.
+        symmetric_pattern : bool, optional
+            Promise that the sparsity pattern of ``L`` is symmetric (it is for
+            :func:`manifill.laplacian`), which speeds up the component search.
+
+        Returns
+        -------
+        HarmonicSolver
+
+        Examples
+        --------
+        >>> import scipy.sparse as sp
+        >>> W = sp.diags([1.0, 1.0], [-1, 1], shape=(5, 5))      # a path of 5 vertices
+        >>> L = sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W
+        >>> HarmonicSolver.from_laplacian(L, [0, 4]).solve([0.0, 8.0]).round(12).tolist()
+        [0.0, 2.0, 4.0, 6.0, 8.0]
+        """
+        check_option("on_empty", on_empty, ON_EMPTY)
+        L = sp.csr_array(L)
+        if L.ndim != 2 or L.shape[0] != L.shape[1]:
+            raise SampleError(f"L has shape {L.shape}; pass a square sparse matrix")
+        obj = cls.__new__(cls)
+        obj._setup(L, as_indices(b, L.shape[0], what="b"), "given", solver, on_empty, iteration, tol, maxiter,
+                   {}, symmetric_pattern=symmetric_pattern)
+        return obj
+
+    def _setup(self, L, b, weights, solver, on_empty, iteration, tol, maxiter, seconds, symmetric_pattern=None):
+        n = L.shape[0]
+        self.b = b
+        self.n = n
         self.L = L
-        ncomp, labels = _components(L, symmetric_pattern=weights in ("uniform", "cotan"))
+        t2 = time.perf_counter()
+        if symmetric_pattern is None:
+            symmetric_pattern = weights in ("uniform", "cotan")
+        ncomp, labels = _components(L, symmetric_pattern=symmetric_pattern)
         has_fixed = np.bincount(labels[self.b], minlength=ncomp) > 0
         self.empty = ~has_fixed[labels]
         empty_components = []
@@ -162,8 +210,7 @@ class HarmonicSolver:
             "negative_weights": int(positive) // 2,
             "solver": self._solver.name,
             "seconds": {
-                "validate": t1 - t0,
-                "laplacian": t2 - t1,
+                **seconds,
                 "partition": t3 - t2,
                 "setup": self._solver.setup_seconds,
             },

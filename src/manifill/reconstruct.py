@@ -225,8 +225,12 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
             b, bc = idx, vals
         # Steps 5-6: harmonic fill of every patch
         t = time.perf_counter()
-        hs = HarmonicSolver(V, F, b, weights=weights, solver=solver, on_empty=on_empty,
-                            iteration=iteration, tol=tol, maxiter=maxiter)
+        if L is None:
+            L = _laplacian(V, F, weights)
+        hs = HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, iteration=iteration,
+                                           tol=tol, maxiter=maxiter,
+                                           symmetric_pattern=weights in ("uniform", "cotan"))
+        hs.report["weights"] = weights
         x0 = None
         if hs.report["solver"] == "iterate":
             if init == "gvf":

@@ -61,7 +61,7 @@ def curve_graph(V, edges, n, *, distance="length"):
     return sp.csr_array((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
 
 
-def vertex_normals(V, F):
+def vertex_normals(V, F, where=None):
     """Area-weighted unit vertex normals.
 
     Parameters
@@ -70,16 +70,22 @@ def vertex_normals(V, F):
         Vertex positions.
     F : (m, 3) numpy array of int
         Triangles.
+    where : (k,) numpy array of int, optional
+        Only these vertices need normals (the others are left zero); only the
+        faces around them are visited.
 
     Returns
     -------
     (n, 3) numpy array
         Unit normals (zero where undefined).
     """
+    if where is not None:
+        need = np.zeros(len(V), dtype=bool)
+        need[where] = True
+        F = F[need[F].any(axis=1)]
     N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    out = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(out, F[:, k], N)
+    corners = F.ravel()
+    out = np.column_stack([np.bincount(corners, weights=np.repeat(N[:, c], 3), minlength=len(V)) for c in range(3)])
     norm = np.linalg.norm(out, axis=1, keepdims=True)
     return np.divide(out, norm, out=np.zeros_like(out), where=norm > 0)
 
@@ -140,7 +146,7 @@ def _gradients(V, normals, ends, idx, vals):
 
 
 def _hermite(V, F, curves, ends, idx, vals):
-    normals = vertex_normals(V, F)
+    normals = vertex_normals(V, F, where=idx)
     arcs = [_arc(V, c) for c in curves]
     grads = _gradients(V, normals, ends, idx, vals)
     pos = {int(v): i for i, v in enumerate(idx)}

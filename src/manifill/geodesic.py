@@ -69,7 +69,11 @@ def mesh_graph(V, F, *, distance="hops", pattern=None):
     if distance == "hops":
         w = np.ones(r.size)
     else:
-        w = np.linalg.norm(V[r] - V[c], axis=1)
+        w = np.zeros(r.size)
+        for k in range(3):
+            x = np.ascontiguousarray(V[:, k])
+            w += (x[r] - x[c]) ** 2
+        w = np.sqrt(w)
         mean = w.mean() if w.size else 1.0
         w = np.maximum(w / (mean if mean > 0 else 1.0), 1e-12)
     indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n))])

@@ -192,11 +192,13 @@ def partition(V, F, idx, G, *, method="delaunay"):
         curves, ends = _cycle_paths(V, G, idx)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[idx] = True
-    uses = np.zeros(n, dtype=np.int64)
-    for c in curves:
-        on_curve[c] = True
-        inner = np.unique(c[1:-1])
-        uses[inner] += 1
+    if curves:
+        on_curve[np.concatenate(curves)] = True
+        # shortest paths are simple: a vertex inside two or more of them is where paths merged
+        inner = np.concatenate([c[1:-1] for c in curves])
+    else:
+        inner = np.empty(0, dtype=np.int64)
+    uses = np.bincount(inner, minlength=n)
     part = Partition(curves, np.asarray(ends, dtype=np.int64).reshape(-1, 2), on_curve,
                      np.full(n, -1, dtype=np.int64), [])
     _label_patches(part, G)

@@ -400,21 +400,27 @@ def test_demo(tmp_path, capsys):
     outdir = tmp_path / "d"
     code, out, err = run(capsys, "demo", "-o", outdir)
     assert code == 0 and err == ""
-    rmse = [float(line.split("relative RMSE ")[1].split(",")[0]) for line in out.splitlines()
-            if "harmonic from" in line and "relative RMSE" in line]
-    assert len(rmse) == 2 and all(0 < r < 0.5 for r in rmse)
+    rmse = {line.split("(")[1].split(")")[0].strip(): float(line.split("relative RMSE ")[1].split(",")[0])
+            for line in out.splitlines() if "vertices (" in line and "relative RMSE" in line}
+    assert len(rmse) == 3 and all(0 < r < 0.5 for r in rmse.values())
+    # the paper's pipeline beats point constraints on the same samples
+    assert rmse["100 points, pipeline"] < rmse["100 points, harmonic"]
     assert files(outdir) == ["report.txt", "samples.csv", "sphere.ply", "sphere.vtu"]
     assert (outdir / "report.txt").read_text().strip() == out.strip()
     m = meshio.read(outdir / "sphere.vtu")
     assert len(m.points) == 40962
-    assert {"truth", "harmonic_curves", "harmonic_points", "fixed_curves", "fixed_points"} <= set(m.point_data)
-    # the command the demo suggests runs, and gives the demo's own point-sample result
+    assert {"truth", "harmonic_curves", "harmonic_points", "fixed_curves", "fixed_points",
+            "reconstruct_points", "curve", "component"} <= set(m.point_data)
+    scale = np.ptp(m.point_data["truth"])
+    # the command the demo suggests runs, and gives the demo's own pipeline result
+    code, out, err = run(capsys, "reconstruct", outdir / "sphere.ply", outdir / "samples.csv",
+                         "-o", outdir / "mine.npy")
+    assert code == 0 and err == ""
+    np.testing.assert_allclose(np.load(outdir / "mine.npy"), m.point_data["reconstruct_points"], atol=1e-6 * scale)
     code, out, err = run(capsys, "harmonic", outdir / "sphere.ply", outdir / "samples.csv",
                          "-o", outdir / "mine.npy")
     assert code == 0 and err == ""
-    x = np.load(outdir / "mine.npy")
-    scale = np.ptp(m.point_data["truth"])
-    np.testing.assert_allclose(x, m.point_data["harmonic_points"], atol=1e-6 * scale)
+    np.testing.assert_allclose(np.load(outdir / "mine.npy"), m.point_data["harmonic_points"], atol=1e-6 * scale)
 
 
 # ----------------------------------------------------------------------------- the installed script
@@ -449,3 +455,75 @@ def test_usage_errors_are_one_line(capsys, argv):
     code, out, err = run(capsys, *argv)
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith("manifill: error: ") and "--help" in err
+
+
+# ----------------------------------------------------------------------------- check and reconstruct
+
+
+def test_check_holds_with_auto_levels_and_prints_the_lipschitz_constant(tmp_path, capsys, sphere):
+    s = sphere
+    code, out, err = run(capsys, "check", s["path"], s["samples2"])
+    assert code == 0 and err == ""
+    from manifill.geodesic import mesh_graph
+    from manifill.gradual import lipschitz_constant
+    G = mesh_graph(s["V"], s["F"])
+    for j, name in enumerate(["temp", "pressure"]):
+        K = lipschitz_constant(G, s["idx"], s["vals"][:, j])[0]
+        assert f"{name}:" in out and f"Lipschitz constant {K:.6g} per hop" in out
+    assert out.count("condition: holds") == 2
+
+
+def test_check_fails_with_too_many_levels_and_lists_pairs(tmp_path, capsys, sphere):
+    s = sphere
+    code, out, err = run(capsys, "check", s["path"], s["samples"], "--levels", "1000")
+    assert code == 1 and err == ""
+    assert "FAILS for" in out
+    from manifill.geodesic import mesh_graph
+    from manifill.gradual import check_gradual
+    c = check_gradual(mesh_graph(s["V"], s["F"]), s["idx"], s["vals"][:, 0], levels=1000)
+    assert f"FAILS for {len(c.violations)} samples" in out
+
+
+def test_check_explicit_levels_and_bad_levels(tmp_path, capsys, sphere):
+    s = sphere
+    code, out, _ = run(capsys, "check", s["path"], s["samples"], "--levels=-1,0,1,2,3")
+    assert code == 0 and "5 levels from -1 to 3" in out
+    code, out, err = run(capsys, "check", s["path"], s["samples"], "--levels", "3,1,2")
+    assert_usage_error(code, out, err)
+    code, out, err = run(capsys, "check", s["path"], s["samples"], "--levels", "many")
+    assert_usage_error(code, out, err)
+
+
+def test_reconstruct_writes_field_curves_and_components(tmp_path, capsys, sphere):
+    from manifill.reconstruct import reconstruct
+    s = sphere
+    out_path = tmp_path / "rec.vtu"
+    code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", out_path, "--curve-values", "linear")
+    assert code == 0 and err == ""
+    r = reconstruct(s["V"], s["F"], s["idx"], s["vals"][:, 0], curve_values="linear")
+    pd = meshio.read(out_path).point_data
+    np.testing.assert_allclose(pd["temp"], r.values, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(pd["curve"].astype(bool), r.on_curve)
+    np.testing.assert_array_equal(pd["component"], r.components)
+    assert "delaunay partition" in out and "steps 5-6" in out
+
+
+@pytest.mark.parametrize("extra", [["--method", "nope"], ["--partition", "x"], ["--curve-values", "y"]])
+def test_reconstruct_bad_options_exit_2(tmp_path, capsys, extra, sphere):
+    s = sphere
+    code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", tmp_path / "r.ply", *extra)
+    assert_usage_error(code, out, err)
+    assert not (tmp_path / "r.ply").exists()
+
+
+def test_reconstruct_component_without_samples_exit_2_and_nan_option(tmp_path, capsys):
+    path, n = two_spheres(tmp_path)
+    samples = tmp_path / "s.csv"
+    samples.write_text("vertex,v\n0,1\n5,2\n9,0\n")
+    code, out, err = run(capsys, "reconstruct", path, samples, "-o", tmp_path / "r.npy")
+    assert_usage_error(code, out, err)
+    assert "no fixed vertex" in err and not (tmp_path / "r.npy").exists()
+    code, out, err = run(capsys, "reconstruct", path, samples, "-o", tmp_path / "r.npy", "--on-empty", "nan")
+    assert code == 0
+    x = np.load(tmp_path / "r.npy")
+    assert np.isnan(x[n:]).all() and np.isfinite(x[:n]).all()

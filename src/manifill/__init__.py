@@ -6,9 +6,14 @@ Manifolds*, with the mesh left as it is. The modules follow the pipeline:
 - :mod:`manifill.validate` - the one validation layer (meshes, samples, options)
 - :mod:`manifill.topology` - edges, components, boundary loops, genus, cleaning
 - :mod:`manifill.samples` - sample positions snapped to vertices
+- :mod:`manifill.geodesic` - many-source shortest paths and Voronoi cells
+- :mod:`manifill.gradual` - Step 1: gradual variation, levels, GVF
+- :mod:`manifill.partition` - Steps 2-3: curves through the samples
+- :mod:`manifill.curves` - Step 4: values on the curves
 - :mod:`manifill.laplacian` - uniform, cotangent, intrinsic Delaunay and robust weights
-- :mod:`manifill.solvers` - direct, AMG and the paper's averaging iteration
-- :mod:`manifill.harmonic` - the harmonic (Dirichlet) fill, Steps 5-6
+- :mod:`manifill.solvers`, :mod:`manifill.multigrid` - direct, AMG and the paper's iteration
+- :mod:`manifill.harmonic` - Steps 5-6: the harmonic (Dirichlet) fill
+- :mod:`manifill.reconstruct` - Steps 1-6 in one call
 - :mod:`manifill.io` - meshes, samples and fields on disk
 """
 
@@ -25,4 +30,5 @@ from .errors import (  # noqa: F401
 )
 from .harmonic import HarmonicSolver, harmonic  # noqa: F401
 from .laplacian import laplacian  # noqa: F401
+from .reconstruct import Reconstruction, reconstruct  # noqa: F401
 from .topology import clean_mesh, mesh_info  # noqa: F401

@@ -148,12 +148,17 @@ def cmd_harmonic(args):
               f"so values may overshoot the samples; --weights intrinsic avoids that")
     if rep["empty_components"]:
         print(f"note: {len(rep['empty_components'])} component(s) without samples left NaN")
+    _print_ranges(X, S, out)
+    return 0
+
+
+def _print_ranges(X, S, out):
+    """Each field's range beside the samples' (overshoot shows), and the output path."""
     lo, hi = np.nanmin(X, axis=0), np.nanmax(X, axis=0)
     for j, name in enumerate(S.names):
         print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{S.vals[:, j].min():.6g}, "
               f"{S.vals[:, j].max():.6g}])")
     print(f"wrote {out}")
-    return 0
 
 
 def _levels(text):
@@ -237,11 +242,7 @@ def cmd_reconstruct(args):
         print(f"steps 5-6: harmonic fill, weights={h['weights']}, solver={h['solver']}"
               + (f", {', '.join(map(str, its))} iterations" if its else ""))
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in rep["seconds"].items()))
-    lo, hi = np.nanmin(X, axis=0), np.nanmax(X, axis=0)
-    for j, name in enumerate(S.names):
-        print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{S.vals[:, j].min():.6g}, "
-              f"{S.vals[:, j].max():.6g}])")
-    print(f"wrote {out}")
+    _print_ranges(X, S, out)
     return 0
 
 

@@ -12,14 +12,8 @@ sample ``q`` by an edge of length ``i_q`` (shifted to be positive); the conditio
 holds exactly when ``U(p) = i_p`` at every sample ``p``, and where it fails, the
 sample ``q`` that attains ``U(p)`` is the worst partner of ``p``.
 
-Distances
----------
-``hops``
-    Number of edges (the paper's graph distance).
-``length``
-    Sum of edge lengths along a path (approximating geodesics), in units of the
-    mesh's mean edge length, so that one unit is one typical edge and levels mean
-    the same as with ``hops`` on a regular mesh.
+Distances are ``hops`` or ``length`` (see :mod:`manifill.geodesic`); the integer
+gradually varied fit always works on hops, as its "one level per edge" needs.
 """
 
 from dataclasses import dataclass

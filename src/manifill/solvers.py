@@ -372,6 +372,7 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
         records the set-up time.
     """
     check_option("solver", solver, SOLVERS)
+    check_option("iteration", iteration, ITERATIONS)
     t0 = time.perf_counter()
     if solver == "auto":
         solver = "direct" if A.shape[0] <= AUTO_DIRECT_MAX else "amg"

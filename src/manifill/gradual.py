@@ -35,7 +35,7 @@ __all__ = [
     "EXTENSIONS",
 ]
 
-def lipschitz_constant(G, idx, vals):
+def lipschitz_constant(G, idx, vals, *, start=None):
     """Smallest ``K`` with ``|f_p - f_q| <= K d(p, q)`` for all samples, exactly.
 
     A Dinkelbach iteration on envelopes: for a trial ``K`` one Dijkstra gives
@@ -52,6 +52,10 @@ def lipschitz_constant(G, idx, vals):
         Sample vertices (unique).
     vals : (k,) numpy array of float
         Sample values.
+    start : tuple (K0, (a, b)), optional
+        A known lower bound ``K0 = |f_a - f_b| / l`` with ``l`` the length of
+        some path from ``idx[a]`` to ``idx[b]`` (e.g. a partition curve):
+        saves the first pass.
 
     Returns
     -------
@@ -76,12 +80,15 @@ def lipschitz_constant(G, idx, vals):
         return 0.0, (-1, -1), 0
     # start just below the answer: the steepest pair of neighbouring Voronoi
     # cells, over an upper bound of their distance
-    p, q, length = voronoi_pairs(G, idx)[:3]
-    if p.size == 0:
-        return 0.0, (-1, -1), 1  # no two samples share a component
-    ratio = np.abs(vals[p] - vals[q]) / length
-    j = int(np.argmax(ratio))
-    K, pair, passes = float(ratio[j]), (int(p[j]), int(q[j])), 1
+    if start is not None and start[0] > 0:
+        K, pair, passes = float(start[0]), tuple(start[1]), 0
+    else:
+        p, q, length = voronoi_pairs(G, idx)[:3]
+        if p.size == 0:
+            return 0.0, (-1, -1), 1  # no two samples share a component
+        ratio = np.abs(vals[p] - vals[q]) / length
+        j = int(np.argmax(ratio))
+        K, pair, passes = float(ratio[j]), (int(p[j]), int(q[j])), 1
     if K == 0:
         # neighbouring cells agree everywhere, so every component is constant
         return 0.0, (-1, -1), passes
@@ -167,7 +174,7 @@ def _uniform(vals, step):
     return levels, np.floor((vals - lo) / step + 0.5).astype(np.int64)
 
 
-def check_gradual(G, idx, vals, *, levels=None, distance="hops"):
+def check_gradual(G, idx, vals, *, levels=None, distance="hops", start=None):
     """Choose value levels and check the gradual variation condition.
 
     Parameters
@@ -188,6 +195,8 @@ def check_gradual(G, idx, vals, *, levels=None, distance="hops"):
         these levels (strictly increasing), each sample going to the nearest.
     distance : {'hops', 'length'}, optional
         The distance ``G`` measures, for the report.
+    start : tuple, optional
+        A lower bound of the Lipschitz constant (see :func:`lipschitz_constant`).
 
     Returns
     -------
@@ -212,7 +221,7 @@ def check_gradual(G, idx, vals, *, levels=None, distance="hops"):
     """
     idx = np.asarray(idx, dtype=np.int64)
     vals = np.asarray(vals, dtype=np.float64)
-    K, pair, _ = lipschitz_constant(G, idx, vals)
+    K, pair, _ = lipschitz_constant(G, idx, vals, start=start)
     step = None
     if levels is None:
         if K == 0:

@@ -74,12 +74,21 @@ class Partition:
 
     def curve_edges(self):
         """Unique edges ``(i, j)``, ``i < j``, of the curve network, as an (e, 2) array."""
+        if getattr(self, "_edges", None) is None:
+            self._edges = self._curve_edges()
+        return self._edges
+
+    def _curve_edges(self):
         if not self.curves:
             return np.empty((0, 2), dtype=np.int64)
         E = np.concatenate([np.column_stack([c[:-1], c[1:]]) for c in self.curves if len(c) > 1] or
                            [np.empty((0, 2), dtype=np.int64)])
         E.sort(axis=1)
-        return np.unique(E, axis=0) if len(E) else E
+        if not len(E):
+            return E
+        m = int(E.max()) + 1
+        key = np.unique(E[:, 0] * m + E[:, 1])
+        return np.column_stack([key // m, key % m])
 
 
 def _path_between(pred, u, v):
@@ -221,21 +230,29 @@ def partition(V, F, idx, G, *, method="delaunay"):
 
 def _label_patches(part, G):
     """Connected components of the vertices off the curves, and their boundaries."""
+    from pyamg.amg_core import connected_components
+
+    G = sp.csr_array(G)
     n = G.shape[0]
     free = ~part.on_curve
-    sub = np.flatnonzero(free)
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(G.indptr))
+    cols = G.indices.astype(np.int64)
+    # the mesh graph with every edge at a curve vertex cut (its pattern is symmetric)
+    keep = free[rows] & free[cols]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=n))]).astype(np.int64)
+    lab = np.empty(n, dtype=np.int64)
+    connected_components(n, indptr, cols[keep], lab)
     labels = np.full(n, -1, dtype=np.int64)
-    if sub.size:
-        ncomp, lab = csgraph.connected_components(G[sub][:, sub], directed=False)
-        sizes = np.bincount(lab, minlength=ncomp)
-        rank = np.empty(ncomp, dtype=np.int64)
-        rank[np.argsort(-sizes, kind="stable")] = np.arange(ncomp)
-        labels[sub] = rank[lab]
+    if free.any():
+        uniq, inv = np.unique(lab[free], return_inverse=True)
+        sizes = np.bincount(inv, minlength=uniq.size)
+        rank = np.empty(uniq.size, dtype=np.int64)
+        rank[np.argsort(-sizes, kind="stable")] = np.arange(uniq.size)
+        labels[free] = rank[inv]
     part.labels = labels
-    C = sp.csr_array(G).tocoo()
-    touch = free[C.row] & part.on_curve[C.col]
-    pairs = np.unique(np.column_stack([labels[C.row[touch]], C.col[touch]]), axis=0)
+    touch = free[rows] & part.on_curve[cols]
+    key = np.unique(labels[rows[touch]] * n + cols[touch])
+    pl, pv = key // n, key % n
     npatch = int(labels.max()) + 1
-    split = np.searchsorted(pairs[:, 0], np.arange(npatch + 1))
-    part.boundaries = [pairs[split[j]:split[j + 1], 1].astype(np.int64) for j in range(npatch)]
-
+    split = np.searchsorted(pl, np.arange(npatch + 1))
+    part.boundaries = [pv[split[j]:split[j + 1]] for j in range(npatch)]

@@ -111,38 +111,53 @@ def _gradients(V, normals, ends, idx, vals):
     A weighted least-squares fit at each sample to the samples within two
     steps of it in the curve network (its neighbours and theirs), placed by
     their offsets projected onto its tangent plane: quadratic where eight or
-    more are well spread, linear (minimum-norm) otherwise.
+    more are well spread (all such fits in one batched SVD), linear
+    (minimum-norm) otherwise.
     """
     k, p = vals.shape
     pos = np.searchsorted(idx, ends)
     A = sp.csr_array((np.ones(2 * len(pos)), (np.concatenate([pos[:, 0], pos[:, 1]]),
                                              np.concatenate([pos[:, 1], pos[:, 0]]))), shape=(k, k))
-    A2 = A + A @ A
-    grads = np.zeros((k, 3, p))
-    for i in range(k):
-        nb = A2.indices[A2.indptr[i]:A2.indptr[i + 1]]
-        nb = nb[nb != i]
-        if nb.size < 2:
-            continue
-        n = normals[idx[i]]
-        e1 = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(n, e1)
-        d = V[idx[nb]] - V[idx[i]]
-        D = np.column_stack([d @ e1, d @ e2])
-        Y = vals[nb] - vals[i]
-        sw = 1.0 / np.maximum(np.linalg.norm(D, axis=1), 1e-300)
-        coef = None
-        if nb.size >= 8:
-            Q = np.column_stack([D, 0.5 * D[:, 0] ** 2, D[:, 0] * D[:, 1], 0.5 * D[:, 1] ** 2])
-            Qw = Q * sw[:, None]
-            if np.linalg.cond(Qw) < 1e8:
-                coef = np.linalg.lstsq(Qw, Y * sw[:, None], rcond=None)[0]
-        if coef is None:
-            # minimum-norm when the neighbours line up: exact along that line
-            coef = np.linalg.lstsq(D * sw[:, None], Y * sw[:, None], rcond=1e-8)[0]
-        grads[i] = np.outer(e1, coef[0]) + np.outer(e2, coef[1])
-    return grads
+    A2 = sp.csr_array(A + A @ A)
+    A2.sort_indices()
+    rows = np.repeat(np.arange(k), np.diff(A2.indptr))
+    off = A2.indices != rows
+    rows, nbrs = rows[off], A2.indices[off].astype(np.int64)
+    count = np.bincount(rows, minlength=k)
+    start = np.concatenate([[0], np.cumsum(count)])
+    slot = np.arange(rows.size) - start[rows]
+    # a tangent frame at every sample
+    nrm = normals[idx]
+    ref = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    e1 = np.cross(nrm, ref)
+    e1 /= np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-300)
+    e2 = np.cross(nrm, e1)
+    m = int(count.max()) if k else 0
+    d = V[idx[nbrs]] - V[idx[rows]]
+    D = np.zeros((k, m, 2))
+    D[rows, slot, 0] = np.einsum("ij,ij->i", d, e1[rows])
+    D[rows, slot, 1] = np.einsum("ij,ij->i", d, e2[rows])
+    Y = np.zeros((k, m, p))
+    Y[rows, slot] = vals[nbrs] - vals[rows]
+    w = np.zeros((k, m))
+    w[rows, slot] = 1.0 / np.maximum(np.hypot(D[rows, slot, 0], D[rows, slot, 1]), 1e-300)
+    coef = np.zeros((k, 2, p))
+    done = np.zeros(k, dtype=bool)
+    quad = np.flatnonzero(count >= 8)
+    if quad.size:
+        Dq = D[quad]
+        Q = np.concatenate([Dq, 0.5 * Dq[..., :1] ** 2, Dq[..., :1] * Dq[..., 1:], 0.5 * Dq[..., 1:] ** 2], axis=2)
+        Qw = Q * w[quad][..., None]
+        U, S, Vt = np.linalg.svd(Qw, full_matrices=False)
+        good = S[:, -1] * 1e8 > S[:, 0]
+        sol = np.einsum("kji,kj,klj,klp->kip", Vt, 1.0 / np.where(S > 0, S, np.inf), U, Y[quad] * w[quad][..., None])
+        coef[quad[good]] = sol[good, :2]
+        done[quad[good]] = True
+    for i in np.flatnonzero(~done & (count >= 1)):
+        c = count[i]
+        # minimum-norm when the neighbours line up: exact along that line
+        coef[i] = np.linalg.lstsq(D[i, :c] * w[i, :c, None], Y[i, :c] * w[i, :c, None], rcond=1e-8)[0]
+    return e1[:, :, None] * coef[:, None, 0, :] + e2[:, :, None] * coef[:, None, 1, :]
 
 
 def _hermite(V, F, curves, ends, idx, vals):

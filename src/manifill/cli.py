@@ -311,7 +311,8 @@ def build_parser():
                                    "status 0 when it holds, 1 when it does not, 2 on bad input.")
     _sample_args(s)
     s.add_argument("--levels", default=None,
-                   help="a count of uniform levels, or comma-separated levels (write --levels=-1,0,1 when the first is negative; default: the finest step that works)")
+                   help="a count of uniform levels, or comma-separated levels (write --levels=-1,0,1 when "
+                        "the first is negative; default: the finest step that works)")
     s.add_argument("--distance", choices=DISTANCES, default="hops", help="graph distance (default: hops)")
     s.set_defaults(func=cmd_check)
 

@@ -248,13 +248,13 @@ def independent_blocks(A, k):
         return None
     work = np.bincount(labels, weights=np.diff(A.indptr), minlength=ncomp)
     order = np.argsort(-work, kind="stable")
-    for k in range(min(k, ncomp), 1, -1):
-        load = np.zeros(k)
+    for sets in range(min(k, ncomp), 1, -1):
+        load = np.zeros(sets)
         owner = np.empty(ncomp, dtype=np.intp)
         for c in order:
             owner[c] = j = int(np.argmin(load))
             load[j] += work[c]
-        if load.min() >= 0.5 * load.sum() / k:
+        if load.min() >= 0.5 * load.sum() / sets:
             part = owner[labels]
-            return [np.flatnonzero(part == j) for j in range(k)]
+            return [np.flatnonzero(part == j) for j in range(sets)]
     return None

@@ -11,7 +11,16 @@ from scipy.spatial import cKDTree
 from .errors import MeshError, OptionError, SampleError
 from .tolerances import TOL
 
-__all__ = ["as_mesh", "as_indices", "as_values", "as_samples", "check_option", "bbox_diagonal", "double_areas", "duplicate_vertex_pairs"]
+__all__ = [
+    "as_mesh",
+    "as_indices",
+    "as_values",
+    "as_samples",
+    "check_option",
+    "bbox_diagonal",
+    "double_areas",
+    "duplicate_vertex_pairs",
+]
 
 
 def _first(idx, k=5):

@@ -18,11 +18,15 @@ path vertices are joined). Two ways to fill it:
     Cubic in arc length along each path, matching the samples' values at both
     ends and slopes taken from a gradient estimated at every sample: a weighted
     least-squares fit, in its tangent plane, to the samples within two steps of
-    it in the curve network (quadratic with eight or more well-spread ones,
-    linear otherwise). Exact for linear fields on flat meshes;
-    much closer than ``linear`` on smooth fields (the error on the curves
-    dominates the reconstruction's), but a cubic can overshoot the samples'
-    range. Vertices shared by several paths take the mean of their values.
+    it in the curve network whose normals are within 45 degrees of its own
+    (quadratic with eight or more well-spread ones, linear otherwise). Where an
+    end has fewer than two such neighbours (sparse samples on a curved surface)
+    the path gets the secant slope, i.e. linear values. Exact for linear fields
+    along straight paths on flat meshes (paths that zig-zag across the mesh are
+    not linear in arc length); much closer than ``linear`` on smooth fields (the
+    error on the curves dominates the reconstruction's), but a cubic can
+    overshoot the samples' range. Vertices shared by several paths take the
+    mean of their values.
 """
 
 import numpy as np
@@ -109,10 +113,11 @@ def _gradients(V, normals, ends, idx, vals):
     """Gradient (in the tangent plane) of every field at every sample.
 
     A weighted least-squares fit at each sample to the samples within two
-    steps of it in the curve network (its neighbours and theirs), placed by
-    their offsets projected onto its tangent plane: quadratic where eight or
-    more are well spread (all such fits in one batched SVD), linear
-    (minimum-norm) otherwise.
+    steps of it in the curve network (its neighbours and theirs) whose normals
+    lie within 45 degrees of its own, placed by their offsets projected onto its
+    tangent plane: quadratic where eight or more are well spread (all such fits
+    in one batched SVD), linear (minimum-norm) with two to seven. Returns the
+    gradients and a mask of the samples that had enough neighbours for one.
     """
     k, p = vals.shape
     pos = np.searchsorted(idx, ends)
@@ -122,12 +127,15 @@ def _gradients(V, normals, ends, idx, vals):
     A2.sort_indices()
     rows = np.repeat(np.arange(k), np.diff(A2.indptr))
     off = A2.indices != rows
+    # a neighbour whose surface turns away (normals more than 45 degrees apart) does not
+    # sit in the tangent plane: leave it out of the fit
+    nrm = normals[idx]
+    off &= np.einsum("ij,ij->i", nrm[rows], nrm[A2.indices]) >= np.cos(np.pi / 4)
     rows, nbrs = rows[off], A2.indices[off].astype(np.int64)
     count = np.bincount(rows, minlength=k)
     start = np.concatenate([[0], np.cumsum(count)])
     slot = np.arange(rows.size) - start[rows]
     # a tangent frame at every sample
-    nrm = normals[idx]
     ref = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     e1 = np.cross(nrm, ref)
     e1 /= np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-300)
@@ -153,17 +161,19 @@ def _gradients(V, normals, ends, idx, vals):
         sol = np.einsum("kji,kj,klj,klp->kip", Vt, 1.0 / np.where(S > 0, S, np.inf), U, Y[quad] * w[quad][..., None])
         coef[quad[good]] = sol[good, :2]
         done[quad[good]] = True
-    for i in np.flatnonzero(~done & (count >= 1)):
+    for i in np.flatnonzero(~done & (count >= 2)):
         c = count[i]
         # minimum-norm when the neighbours line up: exact along that line
         coef[i] = np.linalg.lstsq(D[i, :c] * w[i, :c, None], Y[i, :c] * w[i, :c, None], rcond=1e-8)[0]
-    return e1[:, :, None] * coef[:, None, 0, :] + e2[:, :, None] * coef[:, None, 1, :]
+        done[i] = True
+    grads = e1[:, :, None] * coef[:, None, 0, :] + e2[:, :, None] * coef[:, None, 1, :]
+    return grads, done
 
 
 def _hermite(V, F, curves, ends, idx, vals):
     normals = vertex_normals(V, F, where=idx)
     arcs = [_arc(V, c) for c in curves]
-    grads = _gradients(V, normals, ends, idx, vals)
+    grads, known = _gradients(V, normals, ends, idx, vals)
     pos = {int(v): i for i, v in enumerate(idx)}
     n, p = len(V), vals.shape[1]
     total = np.zeros((n, p))
@@ -175,8 +185,11 @@ def _hermite(V, F, curves, ends, idx, vals):
             continue
         ta = _start_direction(V, normals[path[0]], path, s)
         tb = _start_direction(V, normals[path[-1]], path[::-1], ell - s[::-1])
-        ma = ta @ grads[a]          # slope leaving a, per unit arc length
-        mb = -(tb @ grads[b])       # slope arriving at b
+        secant = (vals[b] - vals[a]) / ell
+        # slope leaving a and arriving at b, per unit arc length; the secant (a straight
+        # line in arc length) where an end has too few usable neighbours for a gradient
+        ma = ta @ grads[a] if known[a] else secant
+        mb = -(tb @ grads[b]) if known[b] else secant
         t = (s / ell)[:, None]
         h00, h10 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t
         h01, h11 = -2 * t**3 + 3 * t**2, t**3 - t**2

@@ -527,3 +527,10 @@ def test_reconstruct_component_without_samples_exit_2_and_nan_option(tmp_path, c
     assert code == 0
     x = np.load(tmp_path / "r.npy")
     assert np.isnan(x[n:]).all() and np.isfinite(x[:n]).all()
+
+
+def test_demo_into_an_existing_file_exits_2(tmp_path, capsys):
+    target = tmp_path / "taken.ply"
+    target.write_text("x")
+    code, out, err = run(capsys, "demo", "-o", target)
+    assert_usage_error(code, out, err)

@@ -20,7 +20,7 @@ from conftest import (
     relabel,
     two_components,
 )
-from manifill import HarmonicSolver, ManifillError, SolveError, harmonic, laplacian
+from manifill import HarmonicSolver, ManifillError, SampleError, SolveError, harmonic, laplacian
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 SOLVERS = ("direct", "amg", "iterate")
@@ -383,3 +383,41 @@ def test_nonmanifold_edge_does_not_crash(weights):
     assert np.isfinite(x).all()
     if weights != "cotan":
         assert_max_principle(x, bc)
+
+
+def test_iterate_gives_each_column_its_own_accuracy():
+    V, F = icosphere(3)
+    b = np.arange(0, len(V), 25)
+    bc = np.column_stack([V[b, 0] * 1e6, V[b, 1] * 1e-3])
+    exact = HarmonicSolver(V, F, b, solver="direct").solve(bc)
+    x = HarmonicSolver(V, F, b, solver="iterate", tol=1e-12).solve(bc)
+    for j in range(2):
+        assert np.abs(x[:, j] - exact[:, j]).max() <= 1e-6 * np.ptp(bc[:, j])
+
+
+@pytest.mark.parametrize("x0", [np.zeros(5), np.zeros((7, 2)), "abc"])
+def test_bad_initial_guess_is_a_sample_error(x0):
+    V, F = icosphere(1)
+    hs = HarmonicSolver(V, F, [0, 5, 9], solver="iterate")
+    with pytest.raises(SampleError):
+        hs.solve([1.0, 2.0, 3.0], x0=x0)
+
+
+def test_nan_initial_guess_is_refused():
+    V, F = icosphere(1)
+    hs = HarmonicSolver(V, F, [0, 5, 9], solver="iterate")
+    with pytest.raises(SampleError, match="x0"):
+        hs.solve([1.0, 2.0, 3.0], x0=np.full(len(V), np.nan))
+
+
+def test_from_laplacian_accepts_integer_matrices_and_refuses_nan():
+    import scipy.sparse as sp
+    W = sp.diags([1, 1], [-1, 1], shape=(6, 6), dtype=np.int64)
+    L = (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).astype(np.int64)
+    for solver in ("direct", "iterate", "amg"):
+        x = HarmonicSolver.from_laplacian(L, [0, 5], solver=solver, tol=1e-12).solve([0.0, 5.0])
+        np.testing.assert_allclose(x, np.arange(6.0), atol=1e-8)
+    Ln = sp.csr_array(L, dtype=float)
+    Ln.data[0] = np.nan
+    with pytest.raises(SampleError, match="NaN"):
+        HarmonicSolver.from_laplacian(Ln, [0, 5])

@@ -435,3 +435,10 @@ def test_off_without_counts_is_a_read_error_not_a_hang(tmp_path, text):
     path.write_text(text)
     with pytest.raises(ReadError, match="counts"):
         read_mesh(path)
+
+
+def test_write_mesh_refuses_faces_beyond_the_vertices(tmp_path):
+    V, F = grid(3)
+    with pytest.raises(WriteError, match="malformed"):
+        write_mesh(tmp_path / "bad.ply", V, F + 100)
+    assert leftovers(tmp_path) == []

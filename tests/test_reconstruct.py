@@ -348,3 +348,14 @@ def test_levels_as_an_array():
     np.testing.assert_array_equal(r.levels[0], [0.0, 0.5, 1.0])
     with pytest.raises(SampleError):
         reconstruct(V, F, idx, [0.0, 0.4, 1.0], levels=[0.0, 1.0, 0.5])
+
+
+def test_hermite_on_sparse_samples_stays_in_range_and_beats_linear():
+    # 17 samples on a coarse sphere: neighbours far round the surface must not spoil the slopes
+    V, F = icosphere(3)
+    idx = np.arange(0, 642, 40)
+    f = V[:, 0]
+    herm = reconstruct(V, F, idx, f[idx])
+    lin = reconstruct(V, F, idx, f[idx], curve_values="linear")
+    assert herm.report["overshoot"] <= 1e-12
+    assert np.abs(herm.values - f).max() <= np.abs(lin.values - f).max()

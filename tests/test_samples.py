@@ -342,3 +342,28 @@ def test_malformed_arrays_give_read_error(tmp_path, case):
         np.save(path, np.array([(0, "warm")], dtype=[("vertex", "i8"), ("temp", "U8")]))
     with pytest.raises((ReadError, SampleError)):
         read_samples(path, V)
+
+
+def test_repeated_value_column_names_are_refused(tmp_path):
+    V, _ = mesh()
+    with pytest.raises(SampleError, match="repeats"):
+        read_samples(write(tmp_path, "vertex,a,a\n0,1,2\n"), V)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), -1.0])
+def test_max_distance_must_be_a_distance(bad):
+    V, _ = mesh()
+    with pytest.raises(SampleError, match="max_distance"):
+        snap_to_vertices(V, [[0.0, 0.0, 0.0]], max_distance=bad)
+
+
+def test_small_conflicting_values_are_not_merged_silently():
+    from manifill.validate import as_samples
+    with pytest.raises(SampleError, match="two different values"):
+        as_samples([0, 0], [1e-13, 9e-13], 3)
+
+
+def test_huge_vertex_index_is_a_read_error(tmp_path):
+    V, _ = mesh()
+    with pytest.raises(ReadError, match="too large"):
+        read_samples(write(tmp_path, "vertex,v\n1e23,1\n"), V)

@@ -373,6 +373,8 @@ def main(argv=None):
         return _err(str(exc).splitlines()[0])
     except MemoryError:
         return _err("out of memory; try a smaller mesh or solver='amg'")
+    except OSError as exc:
+        return _err(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
 
 
 if __name__ == "__main__":

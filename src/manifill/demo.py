@@ -22,6 +22,7 @@ import numpy as np
 
 from .harmonic import HarmonicSolver
 from .reconstruct import reconstruct
+from .errors import WriteError
 from .io import write_mesh
 from .shapes import great_circle_vertices, icosphere
 
@@ -70,7 +71,11 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
         ``files`` written.
     """
     out = Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise WriteError(f"cannot use {out} as the demo's output folder ({exc.strerror}); choose another with -o") \
+            from None
     V, F = icosphere(level)
     truth = demo_field(V)
     report = {"vertices": len(V), "faces": len(F)}

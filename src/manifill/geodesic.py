@@ -70,8 +70,9 @@ def mesh_graph(V, F, *, distance="hops", pattern=None):
         w = np.ones(r.size)
     else:
         w = np.zeros(r.size)
+        Vn = V - V.mean(axis=0)  # centred: lengths do not depend on a far origin
         for k in range(3):
-            x = np.ascontiguousarray(V[:, k])
+            x = np.ascontiguousarray(Vn[:, k])
             w += (x[r] - x[c]) ** 2
         w = np.sqrt(w)
         mean = w.mean() if w.size else 1.0

@@ -155,9 +155,14 @@ class HarmonicSolver:
         [0.0, 2.0, 4.0, 6.0, 8.0]
         """
         check_option("on_empty", on_empty, ON_EMPTY)
-        L = sp.csr_array(L)
+        try:
+            L = sp.csr_array(L, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SampleError("L could not be read as a sparse matrix of numbers; pass a scipy.sparse matrix") from None
         if L.ndim != 2 or L.shape[0] != L.shape[1]:
             raise SampleError(f"L has shape {L.shape}; pass a square sparse matrix")
+        if not np.isfinite(L.data).all():
+            raise SampleError("L has NaN or infinite entries; check how it was built")
         obj = cls.__new__(cls)
         obj._setup(L, as_indices(b, L.shape[0], what="b"), "given", solver, on_empty, iteration, tol, maxiter,
                    {}, symmetric_pattern=symmetric_pattern)
@@ -243,13 +248,20 @@ class HarmonicSolver:
         R = -(self._L_Ib @ bc)
         guess = None
         if x0 is not None:
-            x0 = np.asarray(x0, dtype=np.float64)
+            try:
+                x0 = np.asarray(x0, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise SampleError("x0 could not be read as numbers; pass an (n,) or (n, p) float array") from None
             x0 = x0[:, None] if x0.ndim == 1 else x0
+            if x0.ndim != 2 or x0.shape[0] != self.n or x0.shape[1] not in (1, bc.shape[1]):
+                raise SampleError(f"x0 has shape {x0.shape}; pass ({self.n},) or ({self.n}, {bc.shape[1]})")
             guess = np.broadcast_to(x0[self.unknown], R.shape)
+            if not np.isfinite(guess).all():
+                raise SampleError("x0 has NaN or infinite values at vertices to be solved for; give finite guesses")
         elif self._solver.name == "iterate":
             guess = np.broadcast_to(bc.mean(axis=0), R.shape)
         if self._solver.name == "iterate":
-            X, info = self._solver.solve(R, guess, scale=float(np.ptp(bc)) or 1.0)
+            X, info = self._solver.solve(R, guess, scale=np.ptp(bc, axis=0))
         else:
             X, info = self._solver.solve(R, guess)
         out = np.full((self.n, bc.shape[1]), np.nan)

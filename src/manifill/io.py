@@ -205,10 +205,19 @@ def write_mesh(path, V, F, point_data=None):
             f"{Path(path).name}: {ext[1:].upper()} cannot store per-vertex fields; write .ply, .vtu or .vtk "
             f"(or the values alone as .csv/.npy)"
         )
+    from .errors import ManifillError
+    from .validate import as_mesh
+
+    try:
+        V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    except ManifillError as exc:
+        raise WriteError(f"{Path(path).name}: not written, the mesh is malformed: {exc}") from None
     out, written = {}, {}
     n = len(V)
     for name, arr in point_data.items():
         arr = np.asarray(arr)
+        if arr.ndim not in (1, 2):
+            raise WriteError(f"field {name!r} has shape {arr.shape}; pass (n,) or (n, p) per-vertex values")
         if arr.dtype == bool:
             arr = arr.astype(np.uint8)
         elif np.issubdtype(arr.dtype, np.integer):
@@ -296,6 +305,9 @@ def read_samples(path, V, *, duplicates="error", max_distance=None):
         kind, table, names = _read_structured_npy(path)
     if kind == "vertex":
         col = table[:, 0]
+        if np.any(np.abs(col) >= 2.0**62):
+            row = int(np.flatnonzero(np.abs(col) >= 2.0**62)[0])
+            raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is far too large")
         if not np.all(col == np.round(col)):
             row = int(np.flatnonzero(col != np.round(col))[0])
             raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is not an integer")
@@ -402,7 +414,11 @@ def write_values(path, values, names=None):
     ext = _suffix(path, VALUE_FORMATS, "write")
     values = np.asarray(values, dtype=np.float64)
     values = values[:, None] if values.ndim == 1 else values
+    if values.ndim != 2:
+        raise WriteError(f"values have shape {values.shape}; pass (n,) or (n, p) per-vertex values")
     names = field_names(names, values.shape[1])
+    if ext == ".csv" and any(("," in nm or '"' in nm or "\n" in nm) for nm in names):
+        raise WriteError("a column name holds a comma, quote or line break; rename it for CSV")
     with atomic_path(path) as tmp:
         try:
             if ext == ".npy":

@@ -88,7 +88,9 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
         Laplacian weights of the harmonic fill.
     distance : {'length', 'hops'}, optional
-        What the partition's shortest paths and the Lipschitz report measure.
+        What the partition's shortest paths minimise. Step 1 (levels and the
+        Lipschitz constant in ``report['check']``) always measures hops, as the
+        paper's gradual variation does.
     levels : None, int or (m,) array_like, optional
         Value levels for Step 1 (see :func:`manifill.gradual.check_gradual`);
         by default the finest uniform step at which the samples satisfy the

@@ -127,6 +127,11 @@ def field_names(names, p):
     names = [str(s) for s in names]
     if len(names) != p:
         raise SampleError(f"{len(names)} field names for {p} value columns; give one name per column")
+    seen = set()
+    for name in names:
+        if name in seen:
+            raise SampleError(f"the value column name {name!r} repeats; give each value column its own name")
+        seen.add(name)
     return names
 
 
@@ -190,6 +195,8 @@ def snap_to_vertices(V, points, *, max_distance=None):
         limit = TOL.snap * diag + spacing
     else:
         limit = float(max_distance)
+        if not limit >= 0:
+            raise SampleError(f"max_distance={max_distance!r} must be a distance >= 0 (inf for no limit)")
     dist, idx = tree.query(P)
     far = np.flatnonzero(dist > limit)
     if far.size:

@@ -288,7 +288,7 @@ class IterateSolver:
         self.iteration = check_option("iteration", iteration, ITERATIONS)
         self.tol = TOL.iterate_tol if tol is None else float(tol)
         self.maxiter = 1_000_000 if maxiter is None else int(maxiter)
-        self.A = sp.csr_matrix(A)
+        self.A = sp.csr_matrix(A, dtype=np.float64)
         self.shape = A.shape
         self.diag = self.A.diagonal()
         self.off = self.A - sp.diags(self.diag)
@@ -311,8 +311,9 @@ class IterateSolver:
             Right-hand side(s).
         x0 : (N,) or (N, p) numpy array, optional
             Initial values (zeros by default).
-        scale : float, optional
-            Size of the values (e.g. the range of the fixed values).
+        scale : float or (p,) array_like, optional
+            Size of the values of each column (e.g. the range of its fixed
+            values).
 
         Returns
         -------
@@ -328,8 +329,9 @@ class IterateSolver:
         R = _columns(R)
         X = np.zeros(R.shape) if x0 is None else np.array(_columns(x0), dtype=np.float64)
         info = {"solver": self.name, "iteration": self.iteration, "iterations": []}
-        thresh = self.tol * (scale if scale > 0 else 1.0)
+        scales = np.broadcast_to(np.asarray(scale, dtype=np.float64), (R.shape[1],))
         for j in range(R.shape[1]):
+            thresh = self.tol * (scales[j] if scales[j] > 0 else 1.0)
             x, r = np.ascontiguousarray(X[:, j]), np.ascontiguousarray(R[:, j])
             its, change = 0, np.inf
             while change > thresh and R.shape[0]:
@@ -340,6 +342,9 @@ class IterateSolver:
                     )
                 y = self._sweep(x, r)
                 change = float(np.abs(y - x).max())
+                if not np.isfinite(change):
+                    raise SolveError("the averaging iteration produced NaN or infinite values; "
+                                     "check the initial guess x0 and the weights")
                 x = y
                 its += 1
             X[:, j] = x

@@ -418,7 +418,7 @@ def as_samples(idx, vals, n, *, duplicates="error"):
     np.add.at(sums, inv, vals)
     mean = sums / counts[:, None]
     spread = np.abs(vals - mean[inv]).max(axis=1)
-    conflict = spread > 1e-12 * max(1.0, float(np.abs(vals).max()))
+    conflict = spread > 1e-12 * float(np.abs(vals).max())
     if conflict.any() and duplicates == "error":
         v = int(idx[np.flatnonzero(conflict)[0]])
         rows = np.flatnonzero(idx == v)

@@ -413,7 +413,7 @@ def test_nan_initial_guess_is_refused():
 def test_from_laplacian_accepts_integer_matrices_and_refuses_nan():
     import scipy.sparse as sp
     W = sp.diags([1, 1], [-1, 1], shape=(6, 6), dtype=np.int64)
-    L = (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).astype(np.int64)
+    L = (sp.diags(np.asarray(W.sum(axis=1)).ravel(), dtype=np.int64) - W).astype(np.int64)
     for solver in ("direct", "iterate", "amg"):
         x = HarmonicSolver.from_laplacian(L, [0, 5], solver=solver, tol=1e-12).solve([0.0, 5.0])
         np.testing.assert_allclose(x, np.arange(6.0), atol=1e-8)

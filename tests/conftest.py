@@ -239,3 +239,25 @@ def _obtuse_mesh():
 @pytest.fixture(name="two_component_mesh")
 def _two_component_mesh():
     return two_components()
+
+
+# --- a 15 x 15 flat grid with samples of a linear function (linear precision) -----------
+
+GRID_N = 15
+
+
+def grid_vid(i, j):
+    """Vertex index of grid point (i, j) on ``grid(GRID_N)``."""
+    return j * GRID_N + i
+
+
+GRID_SAMPLES = {
+    "corners": [grid_vid(0, 0), grid_vid(14, 0), grid_vid(0, 14), grid_vid(14, 14)],
+    "corners_center": [grid_vid(0, 0), grid_vid(14, 0), grid_vid(0, 14), grid_vid(14, 14), grid_vid(7, 7)],
+    "nine": [grid_vid(i, j) for i in (0, 7, 14) for j in (0, 7, 14)],
+}
+
+
+def linear_field(X):
+    """A linear function of position."""
+    return 0.3 + 2.0 * X[:, 0] - 1.5 * X[:, 1]

@@ -101,22 +101,7 @@ def test_linear_on_a_network_is_harmonic_on_the_curve_graph(name, method, distan
 # linear functions on a flat grid
 # ---------------------------------------------------------------------------
 
-N = 15
-
-
-def vid(i, j):
-    return j * N + i
-
-
-SAMPLES = {
-    "corners": [vid(0, 0), vid(14, 0), vid(0, 14), vid(14, 14)],
-    "corners_center": [vid(0, 0), vid(14, 0), vid(0, 14), vid(14, 14), vid(7, 7)],
-    "nine": [vid(i, j) for i in (0, 7, 14) for j in (0, 7, 14)],
-}
-
-
-def linear_field(X):
-    return 0.3 + 2.0 * X[:, 0] - 1.5 * X[:, 1] + 0.0 * X[:, 2]
+from conftest import GRID_N as N, GRID_SAMPLES as SAMPLES, grid_vid as vid, linear_field  # noqa: E402
 
 
 def straight(V, c):

@@ -122,22 +122,7 @@ def test_maximum_principle_per_patch(partition, name, build, seed):
 # linear precision on a flat grid
 # ---------------------------------------------------------------------------
 
-N = 15
-
-
-def vid(i, j):
-    return j * N + i
-
-
-SAMPLES = {
-    "corners": [vid(0, 0), vid(14, 0), vid(0, 14), vid(14, 14)],
-    "corners_center": [vid(0, 0), vid(14, 0), vid(0, 14), vid(14, 14), vid(7, 7)],
-    "nine": [vid(i, j) for i in (0, 7, 14) for j in (0, 7, 14)],
-}
-
-
-def linear_field(X):
-    return 0.3 + 2.0 * X[:, 0] - 1.5 * X[:, 1]
+from conftest import GRID_N as N, GRID_SAMPLES as SAMPLES, grid_vid as vid, linear_field  # noqa: E402
 
 
 # the curves must cover the grid's boundary (elsewhere the fill has natural boundary conditions) and be

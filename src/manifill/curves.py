@@ -184,7 +184,7 @@ def _hermite(V, F, curves, ends, idx, vals):
     # the steepest secant slope at every sample, over the curves that end there
     steep = np.zeros(vals.shape)
     pos = np.searchsorted(idx, ends)
-    for (a, b), path, s in zip(pos, curves, arcs):
+    for (a, b), s in zip(pos, arcs):
         if s[-1] > 0:
             slope = np.abs(vals[b] - vals[a]) / s[-1]
             steep[a] = np.maximum(steep[a], slope)

@@ -268,6 +268,16 @@ def _sample_args(s):
                    help="weld coinciding vertices and drop unused vertices and zero-area faces first")
 
 
+def _fill_args(s):
+    """-o OUT and the options of the harmonic fill, shared by harmonic and reconstruct."""
+    s.add_argument("-o", "--output", required=True,
+                   help="output: .ply/.vtu/.vtk (mesh with named fields) or .csv/.npy (values)")
+    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
+    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
+    s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
+                   help="a component without samples: error (default) or fill with NaN")
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with manifill's one-line errors (exit status 2)."""
 
@@ -297,12 +307,7 @@ def build_parser():
                        description="Fix the sample values at their vertices and fill every other vertex "
                                    "with the weighted average of its neighbours (discrete harmonic).")
     _sample_args(s)
-    s.add_argument("-o", "--output", required=True,
-                   help="output: .ply/.vtu/.vtk (mesh with named fields) or .csv/.npy (values)")
-    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
-    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
-    s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
-                   help="a component without samples: error (default) or fill with NaN")
+    _fill_args(s)
     s.set_defaults(func=cmd_harmonic)
 
     s = sub.add_parser("check", help="check the gradual variation condition of samples (Step 1)",
@@ -322,17 +327,12 @@ def build_parser():
                                    "fill every patch harmonically. Writes the field, the curve mask and the "
                                    "patch labels.")
     _sample_args(s)
-    s.add_argument("-o", "--output", required=True,
-                   help="output: .ply/.vtu/.vtk (mesh with named fields) or .csv/.npy (values)")
+    _fill_args(s)
     s.add_argument("--method", choices=METHODS, default="gvf-harmonic", help="default: gvf-harmonic")
     s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
     s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
-    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
-    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
-    s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
-                   help="a component without samples: error (default) or fill with NaN")
     s.set_defaults(func=cmd_reconstruct)
 
     s = sub.add_parser("demo", help="run the built-in example (nothing downloaded)",

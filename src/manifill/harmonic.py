@@ -10,39 +10,16 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import csgraph
 
 from .errors import SampleError, SolveError
 from .laplacian import WEIGHTS, _laplacian
 from .solvers import make_linear_solver
+from .topology import pattern_components
 from .validate import as_indices, as_mesh, as_values, check_option
 
 __all__ = ["HarmonicSolver", "harmonic"]
 
 ON_EMPTY = ("error", "nan")
-
-
-def _components(L, symmetric_pattern):
-    """Connected components of the pattern of ``L``: ``(count, labels)``.
-
-    Labels are numbered in the order of each component's first vertex, as by
-    ``scipy.sparse.csgraph.connected_components(L, directed=False)``, which
-    builds ``L``'s transpose first. When the pattern is known to be symmetric
-    (``uniform`` and ``cotan`` assemble both ``(i, j)`` and ``(j, i)`` for every
-    edge), a search on ``L`` alone (pyamg's kernel) finds the same components
-    in a fraction of the time. Stored zeros count as connections in both.
-    """
-    if not symmetric_pattern:
-        ncomp, labels = csgraph.connected_components(L, directed=False)
-        return int(ncomp), labels
-    from pyamg.amg_core import connected_components
-
-    n = L.shape[0]
-    indptr = np.asarray(L.indptr)
-    indices = np.asarray(L.indices).astype(indptr.dtype, copy=False)
-    labels = np.empty(n, dtype=indptr.dtype)
-    ncomp = connected_components(n, indptr, indices, labels) if n else 0
-    return int(ncomp), labels
 
 
 class HarmonicSolver:
@@ -176,7 +153,7 @@ class HarmonicSolver:
         t2 = time.perf_counter()
         if symmetric_pattern is None:
             symmetric_pattern = weights in ("uniform", "cotan")
-        ncomp, labels = _components(L, symmetric_pattern=symmetric_pattern)
+        ncomp, labels = pattern_components(L, symmetric=symmetric_pattern)
         has_fixed = np.bincount(labels[self.b], minlength=ncomp) > 0
         self.empty = ~has_fixed[labels]
         empty_components = []

@@ -14,6 +14,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .errors import SolveError
+from .topology import pattern_components
 
 __all__ = ["Multigrid", "canonical_csr", "independent_blocks", "workers"]
 
@@ -239,11 +240,7 @@ def independent_blocks(A, k):
     sorted index arrays, or ``None`` (a single component, or one that holds
     nearly all the work).
     """
-    from pyamg.amg_core import connected_components
-
-    n = A.shape[0]
-    labels = np.empty(n, dtype=A.indptr.dtype)
-    ncomp = connected_components(n, A.indptr, A.indices, labels)
+    ncomp, labels = pattern_components(A)
     if ncomp < 2:
         return None
     work = np.bincount(labels, weights=np.diff(A.indptr), minlength=ncomp)

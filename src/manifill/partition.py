@@ -33,6 +33,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .geodesic import trace, voronoi_pairs
+from .topology import pattern_components
 from .validate import check_option
 
 __all__ = ["PARTITIONS", "Partition", "partition"]
@@ -71,10 +72,11 @@ class Partition:
     labels: np.ndarray
     boundaries: list
     report: dict = field(default_factory=dict)
+    _edges: np.ndarray = field(default=None, init=False, repr=False)
 
     def curve_edges(self):
         """Unique edges ``(i, j)``, ``i < j``, of the curve network, as an (e, 2) array."""
-        if getattr(self, "_edges", None) is None:
+        if self._edges is None:
             self._edges = self._curve_edges()
         return self._edges
 
@@ -129,7 +131,7 @@ def _cycle_paths(V, G, idx):
             G.data[by_col[colptr[v]:colptr[v + 1]]] = penalty
 
     # one cycle per mesh component; visiting order: greedy nearest neighbour in space
-    _, comp = csgraph.connected_components(G, directed=False)
+    _, comp = pattern_components(G)
     curves, ends = [], []
     P = V[idx]
     for c in np.unique(comp[idx]):
@@ -230,8 +232,6 @@ def partition(V, F, idx, G, *, method="delaunay"):
 
 def _label_patches(part, G):
     """Connected components of the vertices off the curves, and their boundaries."""
-    from pyamg.amg_core import connected_components
-
     G = sp.csr_array(G)
     n = G.shape[0]
     free = ~part.on_curve
@@ -239,9 +239,8 @@ def _label_patches(part, G):
     cols = G.indices.astype(np.int64)
     # the mesh graph with every edge at a curve vertex cut (its pattern is symmetric)
     keep = free[rows] & free[cols]
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=n))]).astype(np.int64)
-    lab = np.empty(n, dtype=np.int64)
-    connected_components(n, indptr, cols[keep], lab)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=n))])
+    _, lab = pattern_components(sp.csr_array((np.ones(int(keep.sum())), cols[keep], indptr), shape=(n, n)))
     labels = np.full(n, -1, dtype=np.int64)
     if free.any():
         uniq, inv = np.unique(lab[free], return_inverse=True)

@@ -15,6 +15,7 @@ __all__ = [
     "edges",
     "adjacency",
     "connected_components",
+    "pattern_components",
     "boundary_loops",
     "mesh_info",
     "clean_mesh",
@@ -93,8 +94,44 @@ def connected_components(F, n):
     labels : (n,) int numpy array
         Component of each vertex; components are numbered by decreasing size.
     """
-    count, labels = csgraph.connected_components(adjacency(F, n), directed=False)
+    count, labels = pattern_components(adjacency(F, n))
     return count, _relabel_by_size(labels, count)
+
+
+def pattern_components(A, *, symmetric=True):
+    """Connected components of the sparsity pattern of a square matrix: ``(count, labels)``.
+
+    Labels are numbered in the order of each component's first vertex, as by
+    ``scipy.sparse.csgraph.connected_components(A, directed=False)``, which
+    builds ``A``'s transpose first. When the pattern is known to be symmetric
+    (every Laplacian and mesh graph here stores both ``(i, j)`` and ``(j, i)``),
+    a search on ``A`` alone (pyamg's kernel) finds the same components in a
+    fraction of the time. Stored zeros count as connections in both.
+
+    Parameters
+    ----------
+    A : (n, n) scipy sparse matrix
+        CSR (or convertible to it).
+    symmetric : bool, optional
+        Promise that the pattern is symmetric.
+
+    Returns
+    -------
+    count : int
+    labels : (n,) int numpy array
+    """
+    if not symmetric:
+        count, labels = csgraph.connected_components(A, directed=False)
+        return int(count), labels
+    from pyamg.amg_core import connected_components as _search
+
+    A = sp.csr_array(A)
+    n = A.shape[0]
+    indptr = np.asarray(A.indptr)
+    indices = np.asarray(A.indices).astype(indptr.dtype, copy=False)
+    labels = np.empty(n, dtype=indptr.dtype)
+    count = _search(n, indptr, indices, labels) if n else 0
+    return int(count), labels
 
 
 def _relabel_by_size(labels, count):

@@ -1,6 +1,5 @@
 """The Laplacians L = D - W: null space, symmetry, definiteness, references, invariances."""
 
-import importlib
 
 import igl
 import numpy as np
@@ -23,6 +22,7 @@ from conftest import (
     relabel,
 )
 from manifill import MeshError, OptionError, laplacian
+from manifill.laplacian import cotangents
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 mesh_params = pytest.mark.parametrize("mesh", list(MESHES), ids=list(MESHES))
@@ -254,25 +254,19 @@ def test_zero_cotan_weights_stay_stored():
     assert off == E | {(j, i) for i, j in E}
 
 
-def test_zero_weights_stay_stored_in_threaded_assembly(monkeypatch):
-    lap = importlib.import_module("manifill.laplacian")  # the module, not the function of that name
-    V, F = grid(5, diagonal="right")
-    serial = sp.csr_array(laplacian(V, F, weights="cotan"))
-    monkeypatch.setattr(lap, "_CHUNK", 4)
-    monkeypatch.setattr(lap.os, "cpu_count", lambda: 4)
-    threaded = sp.csr_array(laplacian(V, F, weights="cotan"))
-    np.testing.assert_allclose(dense(threaded), dense(serial), atol=1e-15)
-    assert threaded.nnz == serial.nnz
-
-
-def test_threaded_assembly_equals_serial(monkeypatch):
-    lap = importlib.import_module("manifill.laplacian")
+def test_cotan_equals_face_by_face_reference():
+    # slow reference: every face adds its three half cotangents to both entries of its edges
     V, F = irregular(12, seed=5)
-    expected = {w: dense(laplacian(V, F, weights=w)) for w in ("uniform", "cotan")}
-    monkeypatch.setattr(lap, "_CHUNK", 10)
-    monkeypatch.setattr(lap.os, "cpu_count", lambda: 4)
-    for w, L in expected.items():
-        np.testing.assert_allclose(dense(laplacian(V, F, weights=w)), L, rtol=0, atol=1e-14)
+    C = cotangents(V, F)
+    n = len(V)
+    ref = np.zeros((n, n))
+    for f, c in zip(F, C):
+        for k in range(3):
+            i, j = f[(k + 1) % 3], f[(k + 2) % 3]
+            ref[i, j] -= c[k]
+            ref[j, i] -= c[k]
+    ref[np.diag_indices(n)] = -ref.sum(axis=1)
+    np.testing.assert_allclose(dense(laplacian(V, F, weights="cotan")), ref, rtol=0, atol=1e-13)
 
 
 # ---------------------------------------------------------------------------

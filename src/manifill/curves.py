@@ -95,21 +95,6 @@ def vertex_normals(V, F, where=None):
     return np.divide(out, norm, out=np.zeros_like(out), where=norm > 0)
 
 
-def _arc(V, path):
-    seg = np.linalg.norm(np.diff(V[path], axis=0), axis=1)
-    return np.concatenate([[0.0], np.cumsum(seg)])
-
-
-def _start_direction(V, normal, path, s):
-    """Unit tangent at the first vertex of ``path``, towards a third of its length."""
-    j = int(np.searchsorted(s, s[-1] / 3.0))
-    j = min(max(j, 1), len(path) - 1)
-    d = V[path[j]] - V[path[0]]
-    d = d - (d @ normal) * normal
-    nd = np.linalg.norm(d)
-    return d / nd if nd > 0 else d
-
-
 def _gradients(V, normals, ends, idx, vals):
     """Gradient (in the tangent plane) of every field at every sample.
 
@@ -177,42 +162,79 @@ def _gradients(V, normals, ends, idx, vals):
 SLOPE_CAP = 2.0
 
 
+def _sample_position(idx, v):
+    """Position of each vertex ``v`` in the sorted ``idx``, ``-1`` where it is not a sample."""
+    pos = np.minimum(np.searchsorted(idx, v), len(idx) - 1)
+    return np.where(idx[pos] == v, pos, -1)
+
+
 def _hermite(V, F, curves, ends, idx, vals):
+    """Cubic Hermite values along every curve, all curves at once on the concatenated paths."""
+    n, p = len(V), vals.shape[1]
+    total, count = np.zeros((n, p)), np.zeros(n)
+    if not curves:
+        return total, count
     normals = vertex_normals(V, F, where=idx)
-    arcs = [_arc(V, c) for c in curves]
     grads, known = _gradients(V, normals, ends, idx, vals)
+    lens = np.array([len(c) for c in curves])
+    first = np.concatenate([[0], np.cumsum(lens)[:-1]])
+    last = first + lens - 1
+    flat = np.concatenate(curves)
+    cid = np.repeat(np.arange(len(curves)), lens)
+    # arc length from the start of each curve
+    seg = np.zeros(flat.size)
+    seg[1:] = np.sqrt(sum((V[flat[1:], k] - V[flat[:-1], k]) ** 2 for k in range(3)))
+    seg[first] = 0.0
+    s = np.cumsum(seg)
+    s -= s[first][cid]
+    ell = s[last]
+    a, b = _sample_position(idx, flat[first]), _sample_position(idx, flat[last])
     # the steepest secant slope at every sample, over the curves that end there
     steep = np.zeros(vals.shape)
-    pos = np.searchsorted(idx, ends)
-    for (a, b), s in zip(pos, arcs):
-        if s[-1] > 0:
-            slope = np.abs(vals[b] - vals[a]) / s[-1]
-            steep[a] = np.maximum(steep[a], slope)
-            steep[b] = np.maximum(steep[b], slope)
-    pos = {int(v): i for i, v in enumerate(idx)}
-    n, p = len(V), vals.shape[1]
-    total = np.zeros((n, p))
-    count = np.zeros(n)
-    for path, s in zip(curves, arcs):
-        a, b = pos.get(int(path[0])), pos.get(int(path[-1]))
-        ell = s[-1]
-        if a is None or b is None or ell <= 0:
-            continue
-        ta = _start_direction(V, normals[path[0]], path, s)
-        tb = _start_direction(V, normals[path[-1]], path[::-1], ell - s[::-1])
-        secant = (vals[b] - vals[a]) / ell
-        # slope leaving a and arriving at b, per unit arc length; the secant (a straight
-        # line in arc length) where an end has too few usable neighbours for a gradient
-        ma = ta @ grads[a] if known[a] else secant
-        mb = -(tb @ grads[b]) if known[b] else secant
-        ma = np.clip(ma, -SLOPE_CAP * steep[a], SLOPE_CAP * steep[a])
-        mb = np.clip(mb, -SLOPE_CAP * steep[b], SLOPE_CAP * steep[b])
-        t = (s / ell)[:, None]
-        h00, h10 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t
-        h01, h11 = -2 * t**3 + 3 * t**2, t**3 - t**2
-        vals_path = h00 * vals[a] + h10 * ell * ma + h01 * vals[b] + h11 * ell * mb
-        total[path[1:-1]] += vals_path[1:-1]
-        count[path[1:-1]] += 1
+    ok = (a >= 0) & (b >= 0) & (ell > 0)
+    a, b, ell_ok = a[ok], b[ok], ell[ok]
+    slope = np.abs(vals[b] - vals[a]) / ell_ok[:, None]
+    np.maximum.at(steep, a, slope)
+    np.maximum.at(steep, b, slope)
+
+    def start_direction(start, through):
+        """Unit tangent at ``flat[start]`` towards ``flat[through]``, in the tangent plane."""
+        nrm = normals[flat[start]]
+        d = V[flat[through]] - V[flat[start]]
+        d -= np.einsum("ij,ij->i", d, nrm)[:, None] * nrm
+        nd = np.linalg.norm(d, axis=1, keepdims=True)
+        return np.divide(d, nd, out=np.zeros_like(d), where=nd > 0)
+
+    # the vertex a third of the way along, from either end (at least one step in)
+    third = ell[cid] / 3.0
+    ja = np.clip(np.bincount(cid, weights=s < third, minlength=len(curves)).astype(np.int64), 1, lens - 1)
+    jb = np.clip(np.bincount(cid, weights=(ell[cid] - s) < third, minlength=len(curves)).astype(np.int64),
+                 1, lens - 1)
+    ta = start_direction(first[ok], (first + ja)[ok])
+    tb = start_direction(last[ok], (last - jb)[ok])
+    secant = (vals[b] - vals[a]) / ell_ok[:, None]
+    # slope leaving a and arriving at b, per unit arc length; the secant (a straight
+    # line in arc length) where an end has too few usable neighbours for a gradient
+    ma = np.where(known[a][:, None], np.einsum("ij,ijp->ip", ta, grads[a]), secant)
+    mb = np.where(known[b][:, None], -np.einsum("ij,ijp->ip", tb, grads[b]), secant)
+    ma = np.clip(ma, -SLOPE_CAP * steep[a], SLOPE_CAP * steep[a])
+    mb = np.clip(mb, -SLOPE_CAP * steep[b], SLOPE_CAP * steep[b])
+    # interior vertices of the usable curves
+    c_of = np.full(len(curves), -1)
+    c_of[ok] = np.arange(int(ok.sum()))
+    inner = np.ones(flat.size, dtype=bool)
+    inner[first] = inner[last] = False
+    inner &= ok[cid]
+    c = c_of[cid[inner]]
+    t = (s[inner] / ell[cid[inner]])[:, None]
+    h00, h10 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t
+    h01, h11 = -2 * t**3 + 3 * t**2, t**3 - t**2
+    L = ell_ok[c][:, None]
+    vals_path = h00 * vals[a[c]] + h10 * L * ma[c] + h01 * vals[b[c]] + h11 * L * mb[c]
+    v = flat[inner]
+    for j in range(p):
+        total[:, j] = np.bincount(v, weights=vals_path[:, j], minlength=n)
+    count[:] = np.bincount(v, minlength=n)
     return total, count
 
 

@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from .topology import EdgeIndex
 from .validate import check_option
 
 __all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace"]
@@ -28,7 +29,7 @@ DISTANCES = ("hops", "length")
 Voronoi = namedtuple("Voronoi", "p q length edge dist root pred")
 
 
-def mesh_graph(V, F, *, distance="hops", pattern=None):
+def mesh_graph(V, F, *, distance="hops", index=None):
     """The mesh graph with edge lengths for the chosen distance.
 
     Parameters
@@ -39,9 +40,8 @@ def mesh_graph(V, F, *, distance="hops", pattern=None):
         Triangles (validated).
     distance : {'hops', 'length'}, optional
         Edge length 1, or Euclidean edge length divided by the mean edge length.
-    pattern : (n, n) scipy sparse matrix, optional
-        A matrix whose off-diagonal pattern is the mesh graph (e.g. the
-        Laplacian), to skip building it from ``F``.
+    index : manifill.topology.EdgeIndex, optional
+        The edge index of ``F``, when the caller has one already.
 
     Returns
     -------
@@ -57,30 +57,21 @@ def mesh_graph(V, F, *, distance="hops", pattern=None):
     (32, 1.0)
     """
     check_option("distance", distance, DISTANCES)
-    n = len(V)
-    if pattern is None:
-        from .topology import adjacency
-
-        pattern = adjacency(F, n)
-    P = sp.csr_array(pattern)
-    rows = np.repeat(np.arange(n, dtype=P.indices.dtype), np.diff(P.indptr))
-    off = P.indices != rows
-    r, c = rows[off], P.indices[off]
+    if index is None:
+        index = EdgeIndex(F, len(V))
+    E = index.E
     if distance == "hops":
-        w = np.ones(r.size)
+        w = np.ones(len(E))
     else:
-        w = np.zeros(r.size)
+        w = np.zeros(len(E))
         Vn = V - V.mean(axis=0)  # centred: lengths do not depend on a far origin
         for k in range(3):
             x = np.ascontiguousarray(Vn[:, k])
-            w += (x[r] - x[c]) ** 2
+            w += (x[E[:, 0]] - x[E[:, 1]]) ** 2
         w = np.sqrt(w)
         mean = w.mean() if w.size else 1.0
         w = np.maximum(w / (mean if mean > 0 else 1.0), 1e-12)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n))])
-    G = sp.csr_array((w, c, indptr), shape=(n, n))
-    G.has_sorted_indices = True
-    return G
+    return index.matrix(w)
 
 
 def offset_distances(G, sources, offsets):

@@ -29,12 +29,10 @@ Which weights when
     triangles.
 """
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 import scipy.sparse as sp
 
+from .topology import EdgeIndex
 from .validate import as_mesh, bbox_diagonal, check_option
 
 __all__ = ["laplacian", "cotangents", "WEIGHTS"]
@@ -88,78 +86,19 @@ def cotangents(V, F):
     return C
 
 
-def _entries(V, F, weights):
-    """Rows, columns and weights of the 6 off-diagonal entries each face adds."""
-    C = np.ones((len(F), 3)) if weights == "uniform" else cotangents(V, F)
-    i0, i1, i2 = F[:, 0], F[:, 1], F[:, 2]
-    rows = np.concatenate([i1, i2, i2, i0, i0, i1])
-    cols = np.concatenate([i2, i1, i0, i2, i1, i0])
-    w = np.concatenate([C[:, 0], C[:, 0], C[:, 1], C[:, 1], C[:, 2], C[:, 2]])
-    keep = rows != cols  # a face with a repeated vertex has no edge there
-    if not keep.all():
-        rows, cols, w = rows[keep], cols[keep], w[keep]
-    return rows, cols, w
+def _assemble(V, F, n, weights, index=None):
+    """``D - W`` for ``uniform`` or ``cotan`` weights on the mesh's edge index.
 
-
-def _rows_csr(rows, cols, w, lo, hi, n):
-    """CSR of the entries with ``lo <= row < hi``, duplicates summed, zeros kept."""
-    sel = (rows >= lo) & (rows < hi)
-    B = sp.csr_array((w[sel], (rows[sel] - lo, cols[sel])), shape=(hi - lo, n))
-    B.sum_duplicates()
-    return B
-
-
-#: Faces per thread below which the assembly runs on one thread.
-_CHUNK = 200_000
-
-
-def _assemble(V, F, n, weights):
-    """``D - W`` for ``uniform`` or ``cotan`` weights, assembled on up to 4 threads.
-
-    The weights are computed per chunk of faces, and the scatter into CSR per
-    block of rows; both are memory-bound NumPy/SciPy work that releases the GIL,
-    so the chunks run in parallel. Stacking row blocks keeps every stored entry,
-    zero weights included, so the pattern stays the mesh graph.
+    The weights are summed per edge and placed straight into the CSR layout of
+    :class:`~manifill.topology.EdgeIndex`; every edge stays stored, zero weights
+    included, so the pattern is the mesh graph plus the diagonal.
     """
-    if n < 2**31 - 1:
-        F = F.astype(np.int32)  # halves the memory traffic of the assembly and of every product
-    k = int(min(os.cpu_count() or 1, 4, max(1, len(F) // _CHUNK)))
-    if k == 1:
-        W = _rows_csr(*_entries(V, F, weights), 0, n, n)
-    else:
-        with ThreadPoolExecutor(k) as pool:
-            parts = list(pool.map(lambda f: _entries(V, f, weights), np.array_split(F, k)))
-            rows, cols, w = (np.concatenate([p[j] for p in parts]) for j in range(3))
-            del parts
-            bounds = np.linspace(0, n, k + 1).astype(np.int64)
-            blocks = list(pool.map(lambda j: _rows_csr(rows, cols, w, bounds[j], bounds[j + 1], n), range(k)))
-        W = sp.csr_array(sp.vstack(blocks, format="csr"))
+    index = EdgeIndex(F, n) if index is None else index
     if weights == "uniform":
-        W.data[:] = 1.0  # every edge counts once, however many faces share it
-    d = np.asarray(W.sum(axis=1)).ravel()
-    return _d_minus_w(W, d)
-
-
-def _d_minus_w(W, d):
-    """``diag(d) - W`` for a CSR ``W`` with sorted indices and no stored diagonal."""
-    n = W.shape[0]
-    counts = np.diff(W.indptr)
-    indptr = np.concatenate([[0], np.cumsum(counts + 1)]).astype(W.indptr.dtype)
-    rows = np.repeat(np.arange(n, dtype=W.indices.dtype), counts)
-    # position of the diagonal entry in each row: after the entries with col < row
-    before = np.bincount(rows[W.indices < rows], minlength=n)
-    diag_pos = indptr[:-1] + before
-    is_diag = np.zeros(indptr[-1], dtype=bool)
-    is_diag[diag_pos] = True
-    indices = np.empty(indptr[-1], dtype=W.indices.dtype)
-    data = np.empty(indptr[-1])
-    indices[~is_diag] = W.indices
-    data[~is_diag] = -W.data
-    indices[diag_pos] = np.arange(n, dtype=indices.dtype)
-    data[diag_pos] = d
-    L = sp.csr_array((data, indices, indptr), shape=W.shape)
-    L.has_sorted_indices = True
-    return L
+        w = np.ones(len(index))  # every edge counts once, however many faces share it
+    else:
+        w = index.per_edge(cotangents(V, F))
+    return index.matrix(-w, diagonal=index.degree(w))
 
 
 def _robust(V, F, mollify):
@@ -225,9 +164,12 @@ def laplacian(V, F, *, weights="cotan"):
     return _laplacian(V, F, weights)
 
 
-def _laplacian(V, F, weights):
-    """:func:`laplacian` on arrays that have passed :func:`~manifill.validate.as_mesh`."""
+def _laplacian(V, F, weights, index=None):
+    """:func:`laplacian` on arrays that have passed :func:`~manifill.validate.as_mesh`.
+
+    ``index`` (an :class:`~manifill.topology.EdgeIndex` of ``F``) is reused when given.
+    """
     n = len(V)
     if weights in ("intrinsic", "robust"):
         return _robust(_normalised(V), F, 0.0 if weights == "intrinsic" else 1e-5)
-    return _assemble(_normalised(V), F, n, weights)
+    return _assemble(_normalised(V), F, n, weights, index)

@@ -243,11 +243,13 @@ def _label_patches(part, G):
     _, lab = pattern_components(sp.csr_array((np.ones(int(keep.sum())), cols[keep], indptr), shape=(n, n)))
     labels = np.full(n, -1, dtype=np.int64)
     if free.any():
-        uniq, inv = np.unique(lab[free], return_inverse=True)
-        sizes = np.bincount(inv, minlength=uniq.size)
-        rank = np.empty(uniq.size, dtype=np.int64)
-        rank[np.argsort(-sizes, kind="stable")] = np.arange(uniq.size)
-        labels[free] = rank[inv]
+        # patches numbered by decreasing size (ties: by first vertex); curve vertices are
+        # components of their own in ``lab`` and get no number
+        sizes = np.bincount(lab[free], minlength=n)
+        used = np.flatnonzero(sizes)
+        rank = np.full(n, -1, dtype=np.int64)
+        rank[used[np.argsort(-sizes[used], kind="stable")]] = np.arange(used.size)
+        labels[free] = rank[lab[free]]
     part.labels = labels
     touch = free[rows] & part.on_curve[cols]
     key = np.unique(labels[rows[touch]] * n + cols[touch])

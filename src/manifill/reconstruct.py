@@ -24,6 +24,7 @@ from .laplacian import WEIGHTS, _laplacian
 from .partition import PARTITIONS
 from .partition import partition as _partition
 from .solvers import ITERATIONS, SOLVERS
+from .topology import EdgeIndex
 from .validate import as_mesh, as_samples, check_option
 
 __all__ = ["METHODS", "INITS", "Reconstruction", "reconstruct"]
@@ -154,12 +155,9 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
     t = time.perf_counter()
-    L = _laplacian(V, F, weights) if weights in ("uniform", "cotan") else None
-    pattern = L
-    if pattern is None:
-        pattern = _laplacian(V, F, "uniform")
-    G_hops = mesh_graph(V, F, distance="hops", pattern=pattern)
-    G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", pattern=G_hops)
+    index = EdgeIndex(F, n)
+    G_hops = mesh_graph(V, F, distance="hops", index=index)
+    G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
     seconds["graph"] = time.perf_counter() - t
 
     # Steps 2-3 first when they run: the hop length of every curve bounds the Lipschitz
@@ -237,8 +235,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
             b, bc = idx, vals
         # Steps 5-6: harmonic fill of every patch
         t = time.perf_counter()
-        if L is None:
-            L = _laplacian(V, F, weights)
+        L = _laplacian(V, F, weights, index)
         hs = HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, iteration=iteration,
                                            tol=tol, maxiter=maxiter,
                                            symmetric_pattern=weights in ("uniform", "cotan"))

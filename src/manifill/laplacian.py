@@ -70,9 +70,12 @@ def cotangents(V, F):
     x, y, z = (np.ascontiguousarray(V[:, k]) for k in range(3))
     i0, i1, i2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
     # edge vectors opposite each corner: e0 = v2 - v1, e1 = v0 - v2, e2 = v1 - v0
-    ex = [x[i2] - x[i1], x[i0] - x[i2], x[i1] - x[i0]]
-    ey = [y[i2] - y[i1], y[i0] - y[i2], y[i1] - y[i0]]
-    ez = [z[i2] - z[i1], z[i0] - z[i2], z[i1] - z[i0]]
+    def opposite(c):
+        """The three edge vectors' components along one axis, each corner gathered once."""
+        c0, c1, c2 = c[i0], c[i1], c[i2]
+        return [c2 - c1, c0 - c2, c1 - c0]
+
+    ex, ey, ez = opposite(x), opposite(y), opposite(z)
     cx = ey[0] * ez[1] - ez[0] * ey[1]
     cy = ez[0] * ex[1] - ex[0] * ez[1]
     cz = ex[0] * ey[1] - ey[0] * ex[1]

@@ -13,6 +13,7 @@ from .tolerances import TOL
 
 __all__ = [
     "as_mesh",
+    "as_tets",
     "as_indices",
     "as_values",
     "as_samples",
@@ -261,6 +262,71 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
                 f"and falls apart into pieces; merge them with manifill.clean_mesh (CLI: --clean)"
             )
     return V, F
+
+
+def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
+    """Validate a tetrahedral mesh and return it as clean arrays.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    T : (m, 4) array_like of int
+        Tetrahedra as 0-based vertex indices, any integer dtype, either orientation.
+    allow_degenerate : bool, optional
+        Accept tetrahedra of zero volume (harmless for uniform weights).
+    allow_unreferenced : bool, optional
+        Accept vertices used by no tetrahedron.
+
+    Returns
+    -------
+    V : (n, 3) float64 numpy array
+    T : (m, 4) int64 numpy array
+
+    Raises
+    ------
+    MeshError
+        Wrong shapes or dtypes, flat ``(n, 2)`` positions, indices outside
+        ``0..n-1``, NaN or infinite coordinates, tetrahedra of zero volume
+        (``|volume| <= TOL.degenerate_area * diag**3``) or vertices used by no
+        tetrahedron. Each message names the fix.
+
+    See Also
+    --------
+    as_mesh : the same for triangle meshes.
+
+    Examples
+    --------
+    >>> V, T = as_tets([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]])
+    >>> V.dtype, T.shape, T.dtype
+    (dtype('float64'), (1, 4), dtype('int64'))
+    """
+    V3 = _as_vertices(V)
+    if np.shape(V)[1] != 3:  # _as_vertices pads a flat (n, 2) mesh, which has no volume
+        raise MeshError(f"V has shape {np.shape(V)}; a tetrahedral mesh needs an (n, 3) array of vertex positions")
+    V = V3
+    n = len(V)
+    T = _as_faces(T, n, width=4, what="T", kind="tetrahedra")
+    used = np.zeros(n, dtype=bool)
+    used[T.ravel()] = True
+    if not allow_unreferenced and not used.all():
+        unused = np.flatnonzero(~used)
+        raise MeshError(
+            f"{unused.size} vertices are used by no tetrahedron (vertices {_first(unused)}); "
+            f"remove them and renumber T"
+        )
+    if not allow_degenerate:
+        diag = bbox_diagonal(V)
+        a = V[T[:, 0]]
+        u, v, w = V[T[:, 1]] - a, V[T[:, 2]] - a, V[T[:, 3]] - a
+        vol = np.einsum("ij,ij->i", np.cross(u, v), w) / 6.0
+        bad = np.flatnonzero(np.abs(vol) <= TOL.degenerate_area * diag**3)
+        if bad.size:
+            raise MeshError(
+                f"{bad.size} tetrahedra have zero volume (tetrahedra {_first(bad)}); remove them "
+                f"or use weights='uniform', which tolerates them"
+            )
+    return V, T
 
 
 def as_indices(b, n, *, what="b", unique=True):

@@ -14,6 +14,10 @@ Manifolds*, with the mesh left as it is. The modules follow the pipeline:
 - :mod:`manifill.solvers`, :mod:`manifill.multigrid` - direct, AMG and the paper's iteration
 - :mod:`manifill.harmonic` - Steps 5-6: the harmonic (Dirichlet) fill
 - :mod:`manifill.reconstruct` - Steps 1-6 in one call
+- :mod:`manifill.voxels`, :mod:`manifill.tets` - solids as voxels and as tetrahedra
+- :mod:`manifill.volume`, :mod:`manifill.gridsolver` - Step 8: the harmonic fill of a solid
+- :mod:`manifill.solid` - Steps 1-8 on a solid in one call
+- :mod:`manifill.memory` - memory estimates before large solves
 - :mod:`manifill.io` - meshes, samples and fields on disk
 """
 
@@ -24,6 +28,7 @@ from .errors import (  # noqa: F401
     MeshError,
     OptionError,
     ReadError,
+    ResourceError,
     SampleError,
     SolveError,
     WriteError,
@@ -31,4 +36,11 @@ from .errors import (  # noqa: F401
 from .harmonic import HarmonicSolver, harmonic  # noqa: F401
 from .laplacian import laplacian  # noqa: F401
 from .reconstruct import Reconstruction, reconstruct  # noqa: F401
+from .solid import (  # noqa: F401
+    VolumeReconstruction,
+    reconstruct_volume,
+    reconstruct_volume_mask,
+    reconstruct_volume_tets,
+)
 from .topology import clean_mesh, mesh_info  # noqa: F401
+from .volume import VoxelFill, harmonic_fill, tet_fill  # noqa: F401

@@ -2,7 +2,8 @@
 
 Subcommands: ``info`` (what is in a mesh), ``check`` (the gradual variation
 condition of samples), ``reconstruct`` (the paper's pipeline), ``harmonic`` (fill a
-field from the samples alone), ``demo`` (the built-in example). Bad input ends with exit code 2 and one line
+field from the samples alone), ``volume`` (Steps 1-8 inside a solid), ``demo`` (the
+built-in example). Bad input ends with exit code 2 and one line
 ``manifill: error: ...`` on standard error, never a traceback; nothing is left
 half-written.
 """
@@ -246,6 +247,91 @@ def cmd_reconstruct(args):
     return 0
 
 
+def _triple(text, what):
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) == 1:
+        vals *= 3
+    if len(vals) != 3:
+        raise SampleError(f"--{what} {text!r} is not three comma-separated numbers; write e.g. --{what} 1,1,2.5")
+    return vals
+
+
+def cmd_volume(args):
+    """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
+    from .errors import WriteError
+    from .io import read_mesh, read_samples
+    from .solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
+    from .tets import boundary_faces
+    from .volio import GRID_FORMATS, TET_FORMATS, has_tets, read_mask, read_tets, write_tets, write_vti
+
+    out = Path(args.output)
+    ext, src = out.suffix.lower(), Path(args.mesh).suffix.lower()
+    kind = "mask" if src in GRID_FORMATS else ("tets" if src in TET_FORMATS and has_tets(args.mesh) else "surface")
+    form = "voxels" if kind == "mask" else ("tets" if kind == "tets" else args.form)
+    allowed = GRID_FORMATS if form == "voxels" else tuple(TET_FORMATS)
+    if ext not in allowed:
+        raise WriteError(f"{out.name}: a {form} result is written as {' or '.join(allowed)}; change the output name")
+    if not out.parent.is_dir():
+        raise WriteError(f"folder {out.parent} does not exist; create it first or choose another output path")
+    surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
+                        levels=_levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates)
+    if kind == "mask":
+        mask, h, o = read_mask(args.mesh, field=args.mask_field)
+        h = _triple(args.spacing, "spacing") if args.spacing else (h if h is not None else [1.0, 1.0, 1.0])
+        o = _triple(args.origin, "origin") if args.origin else (o if o is not None else [0.0, 0.0, 0.0])
+        voxels, P, _, _ = digital_surface(mask, h, o, args.connectivity)
+        S = read_samples(args.samples, P, duplicates=args.duplicates, max_distance=args.max_snap)
+        r = reconstruct_volume_mask(mask, voxels[S.idx], S.vals, spacing=h, origin=o, connectivity=args.connectivity,
+                                    fill_solver=args.fill_solver, **surface_opts)
+        print(f"voxel mask {mask.shape}, {int(mask.sum()):,} voxels; digital surface {len(voxels):,} voxels")
+    elif kind == "tets":
+        V, T = read_tets(args.mesh)
+        on_d = np.unique(boundary_faces(T, V=V))
+        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
+        if S.snap_distance is not None:  # positions: snap to the boundary, not to inner vertices
+            S = read_samples(args.samples, V[on_d], duplicates=args.duplicates, max_distance=args.max_snap)
+            S.idx = on_d[S.idx]
+        r = reconstruct_volume_tets(V, T, S.idx, S.vals, fill_weights=args.fill_weights,
+                                    fill_solver="auto" if args.fill_solver == "multigrid" else args.fill_solver,
+                                    weights=args.weights, solver=args.solver, **surface_opts)
+        print(f"tetrahedral mesh: {len(V):,} vertices, {len(T):,} tets, {on_d.size:,} on the boundary")
+    else:
+        V, F = read_mesh(args.mesh)
+        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
+        r = reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,
+                               connectivity=args.connectivity, max_volume=args.max_volume,
+                               fill_solver=args.fill_solver, fill_weights=args.fill_weights,
+                               allow_open=args.allow_open, weights=args.weights, solver=args.solver, **surface_opts)
+        print(f"surface: {len(V):,} vertices, {len(F):,} faces")
+    X = r.values if r.values.ndim == (4 if form == "voxels" else 2) else r.values[..., None]
+    fields = {name: X[..., j] for j, name in enumerate(S.names)}
+    if form == "voxels":
+        if ext == ".vti":
+            fields[next(m for m in ("fixed", "fixed_mask", "manifill_fixed") if m not in fields)] = r.fixed
+        write_vti(out, fields, r.spacing, r.origin)
+        fill = r.report["fill"]
+        print(f"voxels: grid {X.shape[:3]}, spacing {np.round(r.spacing, 6).tolist()}, {fill['voxels']:,} inside, "
+              f"{fill['fixed']:,} on the boundary D, {fill['unknowns']:,} filled ({fill['solver']}, "
+              f"connectivity {fill['connectivity']}, iterations {fill['iterations']})")
+    else:
+        boundary = np.zeros(len(r.TV), dtype=bool)
+        boundary[np.unique(boundary_faces(r.TT))] = True
+        fields[next(m for m in ("boundary", "boundary_mask", "manifill_boundary") if m not in fields)] = boundary
+        write_tets(out, r.TV, r.TT, fields)
+        print(f"tets: {len(r.TV):,} vertices, {len(r.TT):,} tetrahedra")
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in r.report["seconds"].items()))
+    finite = X[np.isfinite(X[..., 0])]
+    lo, hi = S.vals.min(axis=0), S.vals.max(axis=0)
+    for j, name in enumerate(S.names):
+        print(f"{name}: samples in [{lo[j]:.4g}, {hi[j]:.4g}], solid in [{finite[:, j].min():.4g}, "
+              f"{finite[:, j].max():.4g}]")
+    print(f"wrote {out}")
+    return 0
+
+
 def cmd_demo(args):
     """``manifill demo``."""
     from .demo import run_demo
@@ -334,6 +420,41 @@ def build_parser():
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
     s.set_defaults(func=cmd_reconstruct)
+
+    s = sub.add_parser("volume", help="reconstruct inside a solid from samples on its boundary (Steps 1-8)",
+                       description="MESH is a closed surface (.off .obj .ply .stl .vtk .vtu; filled as voxels or "
+                                   "tets, see --form), a tetrahedral mesh (.vtu .vtk .msh) or a voxel mask (.vti "
+                                   ".npy). The samples lie on the boundary. Steps 1-6 run on the boundary surface, "
+                                   "Step 8 fills the inside harmonically. Writes .vti/.npy (voxels) or .vtu/.vtk/.msh "
+                                   "(tets) with the field and the boundary mask.")
+    s.add_argument("mesh", help="closed surface, tetrahedral mesh, or voxel mask (.vti .npy)")
+    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy "
+                                   "(for a mask, vertices are boundary voxels in C order; positions are simpler)")
+    s.add_argument("-o", "--output", required=True, help="output: .vti/.npy (voxels) or .vtu/.vtk/.msh (tets)")
+    s.add_argument("--form", choices=("voxels", "tets"), default="voxels",
+                   help="how to fill a closed surface (default: voxels)")
+    s.add_argument("--resolution", type=int, default=128, help="voxels along the longest side (default: 128)")
+    s.add_argument("--connectivity", type=int, choices=(6, 18, 26), default=6, help="voxel neighbours (default: 6)")
+    s.add_argument("--max-volume", type=float, default=None, help="largest tetrahedron volume (--form tets)")
+    s.add_argument("--fill-solver", choices=("auto", "multigrid", "amg", "direct"), default="auto",
+                   help="solver of the inside (default: auto = multigrid for voxels, AMG for tets)")
+    s.add_argument("--fill-weights", choices=("cotan", "uniform"), default="cotan",
+                   help="tetrahedral weights (default: cotan)")
+    s.add_argument("--allow-open", action="store_true", help="voxelise an open surface by winding numbers")
+    s.add_argument("--spacing", default=None, help="voxel size of a mask, e.g. 1,1,2.5 (default: from .vti, or 1)")
+    s.add_argument("--origin", default=None, help="centre of voxel (0,0,0) of a mask (default: from .vti, or 0)")
+    s.add_argument("--mask-field", default=None, help="the .vti field holding the mask (default: 'mask' or the only)")
+    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
+                   help="two samples on one vertex with different values: error (default) or average")
+    s.add_argument("--max-snap", type=float, default=None, help="largest accepted snap distance of a position")
+    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="surface Laplacian weights (default: cotan)")
+    s.add_argument("--solver", choices=SOLVERS, default="auto", help="surface linear solver (default: auto)")
+    s.add_argument("--method", choices=METHODS, default="gvf-harmonic", help="surface method (default: gvf-harmonic)")
+    s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
+    s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
+    s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
+    s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
+    s.set_defaults(func=cmd_volume)
 
     s = sub.add_parser("demo", help="run the built-in example (nothing downloaded)",
                        description="Reconstruct a known field on a generated sphere, write the results "

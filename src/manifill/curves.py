@@ -168,13 +168,14 @@ def _sample_position(idx, v):
     return np.where(idx[pos] == v, pos, -1)
 
 
-def _hermite(V, F, curves, ends, idx, vals):
+def _hermite(V, F, curves, ends, idx, vals, normals=None):
     """Cubic Hermite values along every curve, all curves at once on the concatenated paths."""
     n, p = len(V), vals.shape[1]
     total, count = np.zeros((n, p)), np.zeros(n)
     if not curves:
         return total, count
-    normals = vertex_normals(V, F, where=idx)
+    if normals is None:
+        normals = vertex_normals(V, F, where=idx)
     grads, known = _gradients(V, normals, ends, idx, vals)
     lens = np.array([len(c) for c in curves])
     first = np.concatenate([[0], np.cumsum(lens)[:-1]])
@@ -239,7 +240,7 @@ def _hermite(V, F, curves, ends, idx, vals):
 
 
 def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=None, F=None, curves=None,
-                 ends=None):
+                 ends=None, normals=None):
     """Values at every curve vertex, equal to the samples at the samples.
 
     Parameters
@@ -261,6 +262,9 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
         Level index of every sample (``gvf``).
     F : (m, 3) numpy array of int, optional
         Triangles, for the normals (``hermite``).
+    normals : (n, 3) numpy array, optional
+        Unit normals at the samples (``hermite``), instead of ``F`` (e.g. on a
+        digital surface, which has no triangles).
     curves : list of (l,) numpy arrays, optional
         The ordered paths between samples (``hermite``).
     ends : (c, 2) numpy array of int, optional
@@ -294,7 +298,7 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
     squeeze = vals.ndim == 1
     vals2 = vals[:, None] if squeeze else vals
     if method == "hermite":
-        total, count = _hermite(V, F, curves, ends, idx, vals2)
+        total, count = _hermite(V, F, curves, ends, idx, vals2, normals)
         total[idx] = vals2
         count[idx] = 1
         lone = cv[count[cv] == 0]

@@ -8,6 +8,7 @@ __all__ = [
     "ReadError",
     "WriteError",
     "OptionError",
+    "ResourceError",
 ]
 
 
@@ -41,3 +42,7 @@ class ReadError(ManifillError):
 
 class WriteError(ManifillError):
     """A result could not be written."""
+
+
+class ResourceError(ManifillError):
+    """The problem is predicted not to fit in the memory available; nothing was attempted."""

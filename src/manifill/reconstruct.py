@@ -139,6 +139,24 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     (True, 'delaunay')
     """
     t0 = time.perf_counter()
+    _check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
+    V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
+    n = len(V)
+    idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
+    seconds = {"validate": time.perf_counter() - t0}
+
+    t = time.perf_counter()
+    index = EdgeIndex(F, n)
+    G_hops = mesh_graph(V, F, distance="hops", index=index)
+    G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
+    seconds["graph"] = time.perf_counter() - t
+    surface = _Surface(V, G_hops, G, lambda w: _laplacian(V, F, w, index), F=F)
+    return _pipeline(surface, idx, vals, squeeze, seconds, t0, method=method, partition=partition, weights=weights,
+                     levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
+                     iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter)
+
+
+def _check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init):
     check_option("method", method, METHODS)
     check_option("partition", partition, PARTITIONS)
     check_option("weights", weights, WEIGHTS)
@@ -148,17 +166,31 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     check_option("on_empty", on_empty, ON_EMPTY)
     check_option("iteration", iteration, ITERATIONS)
     check_option("init", init, INITS)
-    V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
-    n = len(V)
-    idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
-    seconds = {"validate": time.perf_counter() - t0}
-    report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
-    t = time.perf_counter()
-    index = EdgeIndex(F, n)
-    G_hops = mesh_graph(V, F, distance="hops", index=index)
-    G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
-    seconds["graph"] = time.perf_counter() - t
+
+@dataclass
+class _Surface:
+    """What Steps 1-6 need of a surface: positions, the two graphs, a Laplacian, normals.
+
+    A triangle mesh gives all of them from ``(V, F)``; a digital surface (the
+    boundary voxels of a solid) gives graphs from voxel adjacency and normals
+    from the solid, and has no triangles (``F`` is None).
+    """
+
+    V: np.ndarray
+    G_hops: object
+    G: object
+    laplacian: object
+    F: np.ndarray = None
+    normals: np.ndarray = None
+
+
+def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, weights, levels, curve_values,
+              solver, on_empty, iteration, init, seed, tol, maxiter):
+    """Steps 1-6 on a validated surface and validated samples."""
+    V, F, G_hops, G = surface.V, surface.F, surface.G_hops, surface.G
+    n = len(V)
+    report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
     # Steps 2-3 first when they run: the hop length of every curve bounds the Lipschitz
     # constant of Step 1 from below, which saves Step 1 a shortest-path pass
@@ -229,13 +261,13 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
                 b, bc = cols[0][0], np.column_stack([cv for _, cv in cols])
             else:
                 b, bc = _curve_values(V, part.curve_edges(), idx, vals, method=curve_values, F=F,
-                                      curves=part.curves, ends=part.ends)
+                                      curves=part.curves, ends=part.ends, normals=surface.normals)
             seconds["curve_values"] = time.perf_counter() - t
         else:
             b, bc = idx, vals
         # Steps 5-6: harmonic fill of every patch
         t = time.perf_counter()
-        L = _laplacian(V, F, weights, index)
+        L = surface.laplacian(weights)
         hs = HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, iteration=iteration,
                                            tol=tol, maxiter=maxiter,
                                            symmetric_pattern=weights in ("uniform", "cotan"))

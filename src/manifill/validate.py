@@ -14,6 +14,7 @@ from .tolerances import TOL
 __all__ = [
     "as_mesh",
     "as_tets",
+    "as_mask",
     "as_indices",
     "as_values",
     "as_samples",
@@ -327,6 +328,49 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
                 f"or use weights='uniform', which tolerates them"
             )
     return V, T
+
+
+def as_mask(mask, *, what="mask", shape=None):
+    """Validate a voxel mask: a non-empty 3-D boolean array.
+
+    Parameters
+    ----------
+    mask : (n0, n1, n2) array_like of bool
+        Booleans, or integers / floats that are all 0 or 1.
+    what : str, optional
+        The argument's name, for the messages.
+    shape : tuple of 3 int, optional
+        The shape it must have (that of the solid's mask).
+
+    Returns
+    -------
+    (n0, n1, n2) bool numpy array
+
+    Raises
+    ------
+    SampleError
+        Not 3-D, the wrong shape, values other than 0 and 1, or no voxel set.
+
+    Examples
+    --------
+    >>> as_mask([[[0, 1]]]).tolist()
+    [[[False, True]]]
+    """
+    try:
+        m = np.asarray(mask)
+    except (TypeError, ValueError):
+        raise SampleError(f"{what} is ragged or not an array; pass a 3-D boolean array") from None
+    if m.ndim != 3:
+        raise SampleError(f"{what} has shape {m.shape}; pass a 3-D boolean array (add an axis of length 1 for a slice)")
+    if shape is not None and m.shape != tuple(shape):
+        raise SampleError(f"{what} has shape {m.shape} but the mask has {tuple(shape)}; pass one of the same shape")
+    if m.dtype != bool:
+        if not (np.issubdtype(m.dtype, np.number) and np.isin(m, (0, 1)).all()):
+            raise SampleError(f"{what} holds values other than 0 and 1 ({m.dtype}); pass a boolean array")
+        m = m.astype(bool)
+    if not m.any():
+        raise SampleError(f"{what} has no voxel set; pass a mask with at least one True voxel")
+    return np.ascontiguousarray(m)
 
 
 def as_indices(b, n, *, what="b", unique=True):

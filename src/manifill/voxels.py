@@ -34,6 +34,7 @@ from .errors import MeshError, OptionError, SampleError
 __all__ = [
     "CONNECTIVITY",
     "as_connectivity",
+    "as_spacing",
     "neighbour_offsets",
     "stencil_weights",
     "boundary_voxels",
@@ -87,7 +88,8 @@ def neighbour_offsets(connectivity=6):
     return np.array(out, dtype=np.int64)
 
 
-def _as_spacing(spacing):
+def as_spacing(spacing):
+    """``spacing`` as three positive floats (one number means cubes), or :class:`~manifill.errors.SampleError`."""
     try:
         h = np.asarray(spacing, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
@@ -121,7 +123,7 @@ def stencil_weights(spacing=(1.0, 1.0, 1.0), connectivity=6):
     >>> w.tolist()
     [1.0, 0.25, 0.0625]
     """
-    h = _as_spacing(spacing)
+    h = as_spacing(spacing)
     D = neighbour_offsets(connectivity)
     P = D * h
     w = np.zeros(len(D))
@@ -252,7 +254,7 @@ def voxel_centres(shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), where=
     -------
     (k, 3) numpy array
     """
-    h = _as_spacing(spacing)
+    h = as_spacing(spacing)
     o = np.asarray(origin, dtype=np.float64).reshape(3)
     if where is None:
         where = np.ones(shape, dtype=bool)

@@ -1,0 +1,284 @@
+"""Step 8: the harmonic fill of a solid, in voxel form and in tetrahedral form.
+
+With the values fixed on some voxels (usually the boundary surface D, from
+Steps 1-6), every other voxel of the solid gets the weighted average of its
+neighbours (:mod:`manifill.voxels` for the neighbours and weights): the discrete
+Dirichlet problem, solved by geometric multigrid on the grid
+(:mod:`manifill.gridsolver`) or, on request, by the sparse solvers of the
+surface. Tetrahedral solids use the tetrahedral Laplacians of
+:mod:`manifill.tets` and the surface's solver.
+
+Before a large solve the memory it needs is estimated, and a problem that would
+not fit is refused (:class:`~manifill.errors.ResourceError`) instead of being
+killed by the system.
+"""
+
+import time
+
+import numpy as np
+
+from .errors import SampleError, SolveError
+from .gridsolver import GridMultigrid
+from .harmonic import ON_EMPTY, HarmonicSolver
+from .memory import check_fits
+from .tets import tet_laplacian
+from .validate import as_indices, as_mask, as_values, as_tets, check_option
+from .voxels import as_connectivity, as_spacing, voxel_components, voxel_laplacian
+
+__all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory"]
+
+FILL_SOLVERS = ("auto", "multigrid", "amg", "direct")
+
+#: Bytes per padded grid point of one multigrid fill (measured peak 2.8 GB for
+#: a 258^3 grid, rounded up), and per stored entry of a sparse AMG solve
+#: (7.2 GB for 8.6 M unknowns with 7 entries per row).
+_MG_BYTES, _AMG_BYTES = 170, 125
+
+
+def fill_memory(shape, unknowns, solver="multigrid", connectivity=6):
+    """Estimated peak memory of a voxel fill, in bytes.
+
+    Parameters
+    ----------
+    shape : tuple of 3 int
+        The grid.
+    unknowns : int
+        Free voxels.
+    solver : {'multigrid', 'amg', 'direct'}, optional
+    connectivity : {6, 18, 26}, optional
+
+    Returns
+    -------
+    float
+    """
+    box = float(np.prod(np.asarray(shape) + 2))
+    if solver == "multigrid":
+        return _MG_BYTES * box
+    nnz = unknowns * (connectivity + 1.0)
+    if solver == "amg":
+        return _AMG_BYTES * nnz + 16 * box
+    return 16.0 * unknowns ** (4.0 / 3.0) + 40 * nnz + 16 * box  # LU fill of a 3-D grid grows like n^(4/3)
+
+
+class VoxelFill:
+    """Harmonic fill of a voxel solid from fixed voxels, precomputed once, solved for many fields.
+
+    Parameters
+    ----------
+    mask : (n0, n1, n2) bool array_like
+        The solid.
+    fixed : (n0, n1, n2) bool array_like
+        Voxels whose values are given, inside ``mask``.
+    spacing : (3,) array_like of float, optional
+        Voxel size along each axis.
+    connectivity : {6, 18, 26}, optional
+        Face, edge or corner neighbours (:mod:`manifill.voxels`).
+    solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
+        ``auto`` is ``multigrid``: matrix-free, the least memory and the
+        fastest on large grids. ``amg`` and ``direct`` assemble the sparse
+        Laplacian and use the surface's solvers.
+    on_empty : {'error', 'nan'}, optional
+        A connected part of the solid with no fixed voxel: raise, or leave it NaN.
+    tol : float, optional
+        Relative residual (default ``1e-10``).
+    maxiter : int, optional
+
+    Attributes
+    ----------
+    free : (n0, n1, n2) bool numpy array
+        The voxels that are solved for.
+    report : dict
+        Counts, the solver, levels, iterations and seconds.
+
+    Raises
+    ------
+    SampleError, OptionError
+        Malformed masks, spacing or options; fixed voxels outside the mask.
+    SolveError
+        A connected part without fixed voxels (``on_empty='error'``).
+    ResourceError
+        The solve is predicted not to fit in the available memory.
+
+    Examples
+    --------
+    >>> mask = np.ones((5, 5, 5), dtype=bool)
+    >>> fixed = np.zeros_like(mask); fixed[0] = fixed[-1] = True
+    >>> x = VoxelFill(mask, fixed).solve(np.indices(mask.shape)[0] * 1.0)
+    >>> x[:, 2, 2].round(10).tolist()
+    [0.0, 1.0, 2.0, 3.0, 4.0]
+    """
+
+    def __init__(self, mask, fixed, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
+                 tol=None, maxiter=None):
+        t0 = time.perf_counter()
+        check_option("solver", solver, FILL_SOLVERS)
+        check_option("on_empty", on_empty, ON_EMPTY)
+        self.connectivity = as_connectivity(connectivity)
+        self.spacing = as_spacing(spacing)
+        self.mask = as_mask(mask)
+        self.fixed = as_mask(fixed, what="fixed", shape=self.mask.shape)
+        outside = self.fixed & ~self.mask
+        if outside.any():
+            v = tuple(int(c) for c in np.argwhere(outside)[0])
+            raise SampleError(f"{int(outside.sum())} fixed voxels lie outside the mask (e.g. voxel {v}); "
+                              f"fix only voxels of the solid")
+        self.tol = 1e-10 if tol is None else float(tol)
+        self.maxiter = 500 if maxiter is None else int(maxiter)
+        # parts of the solid that no fixed voxel reaches have no harmonic solution
+        count, labels = voxel_components(self.mask, self.connectivity)
+        reached = np.zeros(count + 1, dtype=bool)
+        reached[np.unique(labels[self.fixed])] = True
+        empty = self.mask & ~reached[labels]
+        del labels
+        if empty.any() and on_empty == "error":
+            v = tuple(int(c) for c in np.argwhere(empty)[0])
+            parts = int(count - reached[1:].sum())
+            raise SolveError(
+                f"{int(empty.sum())} voxels in {parts} connected part(s) of the solid have no fixed voxel (e.g. voxel "
+                f"{v}), so their values are undetermined; fix a voxel there, or pass on_empty='nan' to leave them NaN")
+        self.empty = empty
+        self.free = self.mask & ~self.fixed & ~empty
+        self.solver = "multigrid" if solver == "auto" else solver
+        unknowns = int(self.free.sum())
+        what = f"the harmonic fill of {unknowns:,} voxels ({self.solver})"
+        check_fits(fill_memory(self.mask.shape, unknowns, self.solver, self.connectivity), what,
+                   "lower the resolution, crop the grid to the solid, or use solver='multigrid'")
+        self.report = {"voxels": int(self.mask.sum()), "fixed": int(self.fixed.sum()), "unknowns": unknowns,
+                       "empty": int(empty.sum()), "connectivity": self.connectivity, "solver": self.solver,
+                       "spacing": self.spacing.tolist(), "iterations": [], "seconds": {}}
+        t = time.perf_counter()
+        self._mg = self._hs = None
+        if unknowns and self.solver == "multigrid":
+            self._mg = GridMultigrid(self.mask & ~empty, self.free, self.spacing, self.connectivity)
+            self.report["levels"] = self._mg.report["levels"]
+        elif unknowns:
+            solid = self.mask & ~empty
+            L = voxel_laplacian(solid, self.spacing, self.connectivity)
+            b = np.flatnonzero(self.fixed[solid])
+            self._hs = HarmonicSolver.from_laplacian(L, b, solver=self.solver, tol=tol, maxiter=maxiter,
+                                                     symmetric_pattern=True)
+            self._solid = solid
+        self.report["seconds"] = {"check": t - t0, "setup": time.perf_counter() - t}
+
+    def solve(self, values):
+        """The harmonic fill for the given fixed values.
+
+        Parameters
+        ----------
+        values : array_like of float
+            Shaped like the mask (read at the fixed voxels), optionally with a
+            trailing axis of ``p`` fields; or ``(k,)`` / ``(k, p)`` with one row
+            per fixed voxel in C order (``np.argwhere(fixed)``).
+
+        Returns
+        -------
+        (n0, n1, n2) or (n0, n1, n2, p) float64 numpy array
+            Equal to ``values`` at the fixed voxels, harmonic at the free ones,
+            NaN outside the mask (and in parts without fixed voxels).
+        """
+        t = time.perf_counter()
+        k = int(self.fixed.sum())
+        arr = np.asarray(values, dtype=np.float64) if not isinstance(values, np.ndarray) else values
+        if arr.shape[:3] == self.mask.shape and arr.ndim in (3, 4):
+            arr = arr[self.fixed]
+        bc, squeeze = as_values(arr, k, what="values")
+        out = np.full(self.mask.shape + (bc.shape[1],), np.nan)
+        out[self.fixed] = bc
+        iterations = []
+        for j in range(bc.shape[1]):
+            if self._mg is not None:
+                g = np.zeros(self.mask.shape)
+                g[self.fixed] = bc[:, j]
+                x, it, rel = self._mg.solve(self._mg.rhs(self._mg.pad(g)), tol=self.tol, maxiter=self.maxiter)
+                if not rel <= self.tol:
+                    raise SolveError(f"the multigrid fill stopped at relative residual {rel:.1e} after {it} "
+                                     f"iterations (asked: {self.tol:.0e}); raise maxiter or loosen tol")
+                out[..., j][self.free] = self._mg.unpad(x)[self.free]
+                iterations.append(it)
+            elif self._hs is not None:
+                xs = self._hs.solve(bc[:, j])
+                field = out[..., j]
+                field[self._solid] = xs
+                iterations.extend(self._hs.report.get("iterations", []))
+        self.report["iterations"] = iterations
+        self.report["seconds"]["solve"] = time.perf_counter() - t
+        return out[..., 0] if squeeze else out
+
+
+def harmonic_fill(mask, fixed, values, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
+                  tol=None, maxiter=None):
+    """Fill a voxel solid harmonically from fixed voxels (the paper's Step 8).
+
+    Parameters
+    ----------
+    mask : (n0, n1, n2) bool array_like
+        The solid.
+    fixed : (n0, n1, n2) bool array_like
+        Voxels with given values (e.g. :func:`manifill.voxels.boundary_voxels`).
+    values : array_like of float
+        Shaped like ``mask`` (read at ``fixed``; a trailing axis for several
+        fields), or ``(k,)`` / ``(k, p)`` per fixed voxel in C order.
+    spacing, connectivity, solver, on_empty, tol, maxiter
+        See :class:`VoxelFill`.
+
+    Returns
+    -------
+    (n0, n1, n2) or (n0, n1, n2, p) float64 numpy array
+        NaN outside the mask.
+
+    See Also
+    --------
+    VoxelFill : the same, precomputed for several fields.
+    manifill.solid.reconstruct_volume : Steps 1-8 from samples on a surface.
+
+    Examples
+    --------
+    >>> mask = np.ones((4, 4, 9), dtype=bool)
+    >>> fixed = np.zeros_like(mask); fixed[..., 0] = fixed[..., -1] = True
+    >>> z = np.indices(mask.shape)[2] * 2.5
+    >>> x = harmonic_fill(mask, fixed, z, spacing=(1, 1, 2.5))
+    >>> bool(np.allclose(x, z))
+    True
+    """
+    return VoxelFill(mask, fixed, spacing=spacing, connectivity=connectivity, solver=solver, on_empty=on_empty,
+                     tol=tol, maxiter=maxiter).solve(values)
+
+
+def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", tol=None, maxiter=None):
+    """Fill a tetrahedral solid harmonically from fixed vertices.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    T : (m, 4) array_like of int
+        Tetrahedra.
+    b : (k,) array_like of int
+        Fixed vertices (e.g. the vertices of :func:`manifill.tets.boundary_faces`).
+    bc : (k,) or (k, p) array_like of float
+        Their values.
+    weights : {'cotan', 'uniform'}, optional
+        The finite-element stiffness (reproduces linear functions on any tet
+        mesh) or 1 per edge (the paper's average; keeps the maximum principle).
+    solver, on_empty, tol, maxiter
+        As :class:`manifill.HarmonicSolver`.
+
+    Returns
+    -------
+    (n,) or (n, p) float64 numpy array
+
+    Examples
+    --------
+    >>> from manifill.shapes import icosphere
+    >>> from manifill.tets import tetrahedralize
+    >>> V, F = icosphere(2)
+    >>> TV, TT = tetrahedralize(V, F)
+    >>> x = tet_fill(TV, TT, np.arange(len(V)), V[:, 0])
+    >>> bool(np.allclose(x, TV[:, 0]))
+    True
+    """
+    V, T = as_tets(V, T, allow_degenerate=weights == "uniform")
+    b = as_indices(b, len(V))
+    L = tet_laplacian(V, T, weights=weights)
+    return HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
+                                         symmetric_pattern=True).solve(bc)

@@ -90,15 +90,16 @@ class _Level:
         self.diag = diag * self.free_f
         self.inv_diag = np.divide(1.0, self.diag, out=np.zeros_like(diag), where=self.diag > 0)
         self.unknowns = int(free.sum())
-        self.red = self.black = None
+        self.colours = None
         self.sweeps = SWEEPS
         if connectivity == 6:
             self.sweeps = RB_SWEEPS
-            # red-black Gauss-Seidel: with face neighbours only, a colour's voxels are independent
+            # red-black Gauss-Seidel: with face neighbours only, a colour's voxels are independent,
+            # and one colour's update is x = (r + sum_d w_d x[i + d]) / diag there
             i, j, k = np.indices(self.padded, sparse=True)
             even = ((i + j + k) % 2 == 0).ravel()
-            self.red = (even * self.inv_diag).astype(dtype)
-            self.black = (~even * self.inv_diag).astype(dtype)
+            self.colours = [(even, (even * self.inv_diag).astype(dtype)),
+                            (~even, (~even * self.inv_diag).astype(dtype))]
 
     def _apply_range(self, x, y, lo, hi, sign=1.0, masked=True):
         ys, t = y[lo:hi], self._tmp[lo:hi]
@@ -126,23 +127,45 @@ class _Level:
         self.chunks.run(lambda lo, hi: self._apply_range(x, y, lo, hi, sign, masked))
         return y
 
-    def smooth(self, x, r, order):
-        """Half of the symmetric smoothing: red then black (``order=+1``) or back, or damped Jacobi."""
-        res = np.empty_like(x)
-        if self.red is not None:
-            colours = (self.red, self.black)[::order]
+    def _neighbours_range(self, x, lo, hi):
+        """``sum_d w_d (x[i + d] + x[i - d])`` on ``lo:hi``, in the scratch array."""
+        t = self._tmp[lo:hi]
+        for g, (wd, shifts) in enumerate(self.groups):
+            part = t if g == 0 else np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]])
+            if g == 0:
+                np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]], out=t)
+            for o in shifts[1:]:
+                part += x[lo + o:hi + o]
+                part += x[lo - o:hi - o]
+            part *= wd
+            if g:
+                t += part
+        return t
 
-            def sweep(lo, hi, colour):
+    def smooth(self, x, r, order, zero=False):
+        """Half of the symmetric smoothing: red then black (``order=+1``) or back, or damped Jacobi.
+
+        ``zero`` says that ``x`` is zero on entry (the first sweep is then one product).
+        """
+        if self.colours is not None:
+            colours = self.colours[::order]
+
+            def sweep(lo, hi, colour, scale):
                 # updating one colour reads only the other: the ranges may run at once
-                ys = self._apply_range(x, res, lo, hi)
-                np.subtract(r[lo:hi], ys, out=ys)
-                ys *= colour[lo:hi]
-                x[lo:hi] += ys
+                t = self._neighbours_range(x, lo, hi)
+                t += r[lo:hi]
+                t *= scale[lo:hi]
+                np.copyto(x[lo:hi], t, where=colour[lo:hi])
 
-            for _ in range(self.sweeps):
-                for colour in colours:
-                    self.chunks.run(partial(sweep, colour=colour))
+            for s in range(self.sweeps):
+                for c, (colour, scale) in enumerate(colours):
+                    if zero and s == 0 and c == 0:
+                        self.chunks.run(lambda lo, hi, scale=scale: np.multiply(r[lo:hi], scale[lo:hi],
+                                                                                  out=x[lo:hi]))
+                    else:
+                        self.chunks.run(partial(sweep, colour=colour, scale=scale))
             return x
+        res = np.empty_like(x)
         for _ in range(self.sweeps):
             self.apply(x, out=res)
             np.subtract(r, res, out=res)
@@ -316,7 +339,7 @@ class GridMultigrid:
             if self._coarse_lu is not None:
                 x[self._coarse_ids] = self._coarse_lu.solve(r[self._coarse_ids].astype(np.float64))
             return x
-        lv.smooth(x, r, +1)
+        lv.smooth(x, r, +1, zero=True)
         res = lv.apply(x)
         np.subtract(r, res, out=res)
         c = res.reshape(lv.padded)[1:-1, 1:-1, 1:-1]

@@ -149,7 +149,11 @@ class VoxelFill:
         t = time.perf_counter()
         self._mg = self._hs = None
         if unknowns and self.solver == "multigrid":
-            self._mg = GridMultigrid(self.mask & ~empty, self.free, self.spacing, self.connectivity)
+            # the grid cropped to the solid: empty margins cost memory and time in every pass
+            solid = self.mask & ~empty
+            nz = [np.flatnonzero(solid.any(axis=tuple(b for b in range(3) if b != a))) for a in range(3)]
+            self._crop = tuple(slice(int(z[0]), int(z[-1]) + 1) for z in nz)
+            self._mg = GridMultigrid(solid[self._crop], self.free[self._crop], self.spacing, self.connectivity)
             self.report["levels"] = self._mg.report["levels"]
         elif unknowns:
             solid = self.mask & ~empty
@@ -189,11 +193,13 @@ class VoxelFill:
             if self._mg is not None:
                 g = np.zeros(self.mask.shape)
                 g[self.fixed] = bc[:, j]
-                x, it, rel = self._mg.solve(self._mg.rhs(self._mg.pad(g)), tol=self.tol, maxiter=self.maxiter)
+                x, it, rel = self._mg.solve(self._mg.rhs(self._mg.pad(g[self._crop])), tol=self.tol,
+                                            maxiter=self.maxiter)
                 if not rel <= self.tol:
                     raise SolveError(f"the multigrid fill stopped at relative residual {rel:.1e} after {it} "
                                      f"iterations (asked: {self.tol:.0e}); raise maxiter or loosen tol")
-                out[..., j][self.free] = self._mg.unpad(x)[self.free]
+                free = self.free[self._crop]
+                out[..., j][self._crop][free] = self._mg.unpad(x)[free]
                 iterations.append(it)
             elif self._hs is not None:
                 xs = self._hs.solve(bc[:, j])

@@ -261,6 +261,29 @@ def voxel_centres(shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), where=
     return o + np.argwhere(where) * h
 
 
+def _surface_band(V, F, shape, h, origin):
+    """Voxels within one voxel of the surface: points spread over every triangle at most h/2 apart, dilated."""
+    band = np.zeros(shape, dtype=bool)
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    longest = np.sqrt(np.maximum.reduce([((B - A) ** 2).sum(1), ((C - B) ** 2).sum(1), ((A - C) ** 2).sum(1)]))
+    steps = np.maximum(np.ceil(longest / (0.5 * h)).astype(np.int64), 1)
+    for s in np.unique(steps):
+        sel = np.flatnonzero(steps == s)
+        i, j = np.meshgrid(np.arange(s + 1), np.arange(s + 1), indexing="ij")
+        keep = i + j <= s
+        u, v = i[keep] / s, j[keep] / s
+        for lo in range(0, sel.size, max(1, 2_000_000 // u.size)):
+            f = sel[lo:lo + max(1, 2_000_000 // u.size)]
+            P = (A[f, None] + u[None, :, None] * (B[f, None] - A[f, None])
+                 + v[None, :, None] * (C[f, None] - A[f, None])).reshape(-1, 3)
+            ijk = np.rint((P - origin) / h).astype(np.int64)
+            ijk = np.clip(ijk, 0, np.array(shape) - 1)
+            band[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
+    from scipy import ndimage
+
+    return ndimage.binary_dilation(band, np.ones((3, 3, 3), dtype=bool))
+
+
 def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     """Voxelise the solid bounded by a closed triangle mesh.
 
@@ -325,9 +348,25 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
         raise MeshError("the surface has no extent (all vertices coincide); pass a surface that encloses a solid")
     count3 = np.maximum(np.ceil((hi - lo) / h - 1e-9).astype(int), 1) + 2 * padding
     origin = (lo + hi) / 2 - (count3 - 1) * h / 2
-    Q = voxel_centres(tuple(count3), (h, h, h), origin)
+    shape = tuple(int(c) for c in count3)
+    # the winding number is constant away from the surface: evaluate it in a band of voxels
+    # around the surface, and once per connected region of the voxels outside the band
+    band = _surface_band(V, F, shape, h, origin)
+    from scipy import ndimage
+
+    labels, count = ndimage.label(~band)
+    first = np.full(count + 1, -1, dtype=np.int64)
+    flat = labels.ravel()
+    order = np.flatnonzero(flat)
+    first[flat[order[::-1]]] = order[::-1]  # the first voxel of every region
+    where = np.concatenate([np.flatnonzero(band.ravel()), first[1:]])
+    Q = origin + np.column_stack(np.unravel_index(where, shape)) * h
     wn = igl.fast_winding_number(np.ascontiguousarray(V), np.ascontiguousarray(F, dtype=np.int64), Q)
-    mask = (np.abs(wn) >= 0.5).reshape(tuple(count3))
+    inside = np.abs(wn) >= 0.5
+    nb = int(band.sum())
+    region_inside = np.concatenate([[False], inside[nb:]])
+    mask = region_inside[labels]
+    mask[band] = inside[:nb]
     if not mask.any():
         raise MeshError(
             f"no voxel centre lies inside the surface at resolution {resolution}; raise the resolution "

@@ -261,7 +261,7 @@ def _triple(text, what):
 
 def cmd_volume(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
-    from .errors import WriteError
+    from .errors import ReadError, WriteError
     from .io import read_mesh, read_samples
     from .solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
     from .tets import boundary_faces
@@ -269,6 +269,8 @@ def cmd_volume(args):
 
     out = Path(args.output)
     ext, src = out.suffix.lower(), Path(args.mesh).suffix.lower()
+    if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
+        raise ReadError(f"{args.mesh}: no such file")  # before its kind (and the output's) is guessed from it
     kind = "mask" if src in GRID_FORMATS else ("tets" if src in TET_FORMATS and has_tets(args.mesh) else "surface")
     form = "voxels" if kind == "mask" else ("tets" if kind == "tets" else args.form)
     allowed = GRID_FORMATS if form == "voxels" else tuple(TET_FORMATS)

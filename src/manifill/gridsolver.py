@@ -33,6 +33,8 @@ COARSE_MAX = 4000
 SWEEPS = 2
 #: Red-black Gauss-Seidel sweeps before and after (6 neighbours).
 RB_SWEEPS = 2
+#: CG iterations over which the residual must at least halve (else the solve stops as stalled).
+STALL = 20
 #: Grid points per thread below which a level runs on one thread.
 _CHUNK = 1_000_000
 
@@ -205,13 +207,14 @@ def _wall_weights(fixed, free_c, axes, h_c, connectivity):
         ex = np.moveaxis(extra, a, 0)
         m = fc.shape[0]
         k = mid.shape[0]
-        # towards k + 1 through fine 2k + 1
-        plus = mid[:min(k, m - 1)] & ~fc[1:min(k, m - 1) + 1]
+        # towards k + 1 through fine 2k + 1 (also when k + 1 is free: the wall between them must not vanish,
+        # or a solid fixed only at odd voxels, e.g. one plane, has a singular coarse problem)
+        plus = mid[:min(k, m - 1)]
         ex[:plus.shape[0]] += wa * plus
         if k >= m:  # a last fine point beyond the last coarse one
             ex[m - 1] += wa * mid[m - 1]
         # towards k - 1 through fine 2k - 1
-        minus = mid[:m - 1] & ~fc[:m - 1]
+        minus = mid[:m - 1]
         ex[1:1 + minus.shape[0]] += wa * minus
     return extra * free_c
 
@@ -332,21 +335,33 @@ class GridMultigrid:
         return self.fine.apply(g, sign=-1.0)  # the diagonal is zero where g is not
 
     # -- the V-cycle (single precision) -----------------------------------------------
+    def _buffers(self, lv):
+        """Work arrays of a level, allocated once (fresh large arrays cost page faults every cycle)."""
+        if not hasattr(lv, "bx"):
+            lv.bx = np.zeros(lv.free.size, dtype=lv.dtype)   # the level's correction
+            lv.bres = np.zeros(lv.free.size, dtype=lv.dtype)  # its residual
+            lv.br = np.zeros(lv.free.size, dtype=lv.dtype)    # its right-hand side (coarse levels)
+        return lv.bx, lv.bres, lv.br
+
     def _cycle(self, k, r):
         lv = self.levels[k]
-        x = np.zeros_like(r)
+        x, res, _ = self._buffers(lv)
         if k == len(self.levels) - 1:
+            x.fill(0)
             if self._coarse_lu is not None:
                 x[self._coarse_ids] = self._coarse_lu.solve(r[self._coarse_ids].astype(np.float64))
             return x
+        if lv.colours is None:
+            x.fill(0)
         lv.smooth(x, r, +1, zero=True)
-        res = lv.apply(x)
+        lv.apply(x, out=res)
         np.subtract(r, res, out=res)
         c = res.reshape(lv.padded)[1:-1, 1:-1, 1:-1]
         for a in np.flatnonzero(self.axes[k]):
             c = _restrict_axis(c, a)
         nxt = self.levels[k + 1]
-        rc = np.pad(c, 1).ravel()
+        rc = self._buffers(nxt)[2]
+        rc.reshape(nxt.padded)[1:-1, 1:-1, 1:-1] = c  # the zero border stays
         rc *= nxt.free_f
         xc = self._cycle(k + 1, rc).reshape(nxt.padded)[1:-1, 1:-1, 1:-1]
         for a in np.flatnonzero(self.axes[k])[::-1]:
@@ -356,9 +371,20 @@ class GridMultigrid:
         lv.smooth(x, r, -1)
         return x
 
-    def precondition(self, r):
+    def precondition(self, r, out=None):
         """One V-cycle applied to a residual (double in, double out)."""
-        return self._cycle(0, r.astype(np.float32)).astype(np.float64)
+        if not hasattr(self, "_r32"):
+            self._r32 = np.empty(r.size, dtype=np.float32)
+        self.fine.chunks.run(lambda lo, hi: np.copyto(self._r32[lo:hi], r[lo:hi], casting="same_kind"))
+        lo, hi = self.fine.chunks.ranges[0][0], self.fine.chunks.ranges[-1][1]
+        self._r32[:lo] = 0
+        self._r32[hi:] = 0
+        z = self._cycle(0, self._r32)
+        out = np.empty(r.size) if out is None else out
+        self.fine.chunks.run(lambda lo, hi: np.copyto(out[lo:hi], z[lo:hi]))
+        out[:lo] = 0
+        out[hi:] = 0
+        return out
 
     def _dot(self, a, b):
         return float(sum(self.fine.chunks.run(lambda lo, hi: np.dot(a[lo:hi], b[lo:hi]))))
@@ -380,7 +406,8 @@ class GridMultigrid:
             Flat and padded like ``rhs``.
         iterations : int
         residual : float
-            Relative residual reached.
+            Relative residual reached; above ``tol`` when the iteration stalled
+            (the residual did not halve in ``STALL`` iterations) or hit ``maxiter``.
         """
         A = self.fine
         x = np.zeros_like(rhs)
@@ -392,25 +419,31 @@ class GridMultigrid:
         p = z.copy()
         rz = self._dot(r, z)
         q = np.empty_like(r)
-        it, rel = 0, 1.0
+        scratch = np.empty_like(r)
+        it, rel, history = 0, 1.0, []
         while it < maxiter:
             it += 1
             A.apply(p, out=q)
             alpha = rz / self._dot(p, q)
 
             def update(lo, hi, alpha=alpha):
-                x[lo:hi] += alpha * p[lo:hi]
-                r[lo:hi] -= alpha * q[lo:hi]
+                t = np.multiply(p[lo:hi], alpha, out=scratch[lo:hi])
+                x[lo:hi] += t
+                np.multiply(q[lo:hi], alpha, out=t)
+                r[lo:hi] -= t
                 return np.dot(r[lo:hi], r[lo:hi])
 
             rel = float(np.sqrt(sum(A.chunks.run(update)))) / norm0
-            if rel <= tol:
+            history.append(rel)
+            if rel <= tol or not np.isfinite(rel):
                 break
-            z = self.precondition(r)
+            if it > STALL and rel > 0.5 * history[-1 - STALL]:
+                break  # stalled: the caller decides (manifill.volume falls back to AMG)
+            self.precondition(r, out=z)
             rz_new = self._dot(r, z)
             beta = rz_new / rz
 
-            def direction(lo, hi, beta=beta, z=z):
+            def direction(lo, hi, beta=beta):
                 p[lo:hi] *= beta
                 p[lo:hi] += z[lo:hi]
 

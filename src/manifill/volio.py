@@ -150,7 +150,9 @@ def write_vti(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
         if arr.dtype == bool:
             arr = arr.astype(np.uint8)
         elif np.issubdtype(arr.dtype, np.integer):
-            arr = arr.astype(np.int32)
+            i32 = np.iinfo(np.int32)
+            fits = arr.size == 0 or (int(arr.min()) >= i32.min and int(arr.max()) <= i32.max)
+            arr = arr.astype(np.int32 if fits else np.int64)  # Int64 rather than wrap around
         else:
             arr = arr.astype(np.float64)
         arrays[str(name)] = arr
@@ -161,12 +163,16 @@ def write_vti(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.save(fh, next(iter(arrays.values())))
         return
-    h = np.asarray(spacing, dtype=np.float64).reshape(3)
-    o = np.asarray(origin, dtype=np.float64).reshape(3)
+    try:
+        h = np.asarray(spacing, dtype=np.float64).reshape(3)
+        o = np.asarray(origin, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise WriteError(f"spacing {spacing!r} or origin {origin!r} is not three numbers; pass e.g. "
+                         f"spacing=(1.0, 1.0, 2.5)") from None
     extent = " ".join(f"0 {n - 1}" for n in shape)
     with atomic_path(path) as tmp:
         try:
-            with open(tmp, "w", encoding="ascii") as fh:
+            with open(tmp, "w", encoding="utf-8") as fh:  # field names may be any text
                 fh.write('<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" '
                          'header_type="UInt64">\n')
                 fh.write(f'  <ImageData WholeExtent="{extent}" Origin="{" ".join(map(repr, o.tolist()))}" '
@@ -219,15 +225,21 @@ def read_vti(path):
         raise ReadError(f"{path.name}: not VTK ImageData; pass a .vti image")
     if root.get("compressor"):
         raise ReadError(f"{path.name}: compressed VTI is not supported; save it uncompressed (or as .npy)")
-    ext = [int(v) for v in img.get("WholeExtent", "").split()]
-    if len(ext) != 6:
-        raise ReadError(f"{path.name}: ImageData without a WholeExtent; check the file")
+    try:
+        ext = [int(v) for v in img.get("WholeExtent", "").split()]
+        spacing = np.array([float(v) for v in img.get("Spacing", "1 1 1").split()])
+        origin = np.array([float(v) for v in img.get("Origin", "0 0 0").split()])
+    except ValueError:
+        raise ReadError(f"{path.name}: ImageData with a malformed WholeExtent, Spacing or Origin; "
+                        f"check the file") from None
+    if len(ext) != 6 or spacing.size != 3 or origin.size != 3:
+        raise ReadError(f"{path.name}: ImageData without a WholeExtent of 6 numbers (or a Spacing or Origin "
+                        f"of 3); check the file")
     shape = tuple(ext[2 * a + 1] - ext[2 * a] + 1 for a in range(3))
-    spacing = np.array([float(v) for v in img.get("Spacing", "1 1 1").split()])
-    origin = np.array([float(v) for v in img.get("Origin", "0 0 0").split()])
     header = np.uint64 if root.get("header_type") == "UInt64" else np.uint32
     fields = {}
-    for da in img.iter("DataArray"):
+    # point data only: cell data (one value per cell, fewer) is not a voxel field here
+    for da in (da for pd in img.iter("PointData") for da in pd.iter("DataArray")):
         kind, fmt = da.get("type"), da.get("format", "ascii")
         if kind not in _NP_TYPES or fmt not in ("ascii", "binary"):
             raise ReadError(f"{path.name}: DataArray {da.get('Name')!r} is {fmt} {kind}; save the image with "

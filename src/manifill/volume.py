@@ -75,8 +75,10 @@ class VoxelFill:
         Face, edge or corner neighbours (:mod:`manifill.voxels`).
     solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
         ``auto`` is ``multigrid``: matrix-free, the least memory and the
-        fastest on large grids. ``amg`` and ``direct`` assemble the sparse
-        Laplacian and use the surface's solvers.
+        fastest on large grids; should it stall (a grid hierarchy that loses
+        the fixed voxels, e.g. a few isolated ones), ``auto`` falls back to
+        ``amg`` and says so in ``report["fallback"]``. ``amg`` and ``direct``
+        assemble the sparse Laplacian and use the surface's solvers.
     on_empty : {'error', 'nan'}, optional
         A connected part of the solid with no fixed voxel: raise, or leave it NaN.
     tol : float, optional
@@ -139,6 +141,8 @@ class VoxelFill:
         self.empty = empty
         self.free = self.mask & ~self.fixed & ~empty
         self.solver = "multigrid" if solver == "auto" else solver
+        self._auto = solver == "auto"
+        self._tol_arg, self._maxiter_arg = tol, maxiter
         unknowns = int(self.free.sum())
         what = f"the harmonic fill of {unknowns:,} voxels ({self.solver})"
         check_fits(fill_memory(self.mask.shape, unknowns, self.solver, self.connectivity), what,
@@ -156,13 +160,22 @@ class VoxelFill:
             self._mg = GridMultigrid(solid[self._crop], self.free[self._crop], self.spacing, self.connectivity)
             self.report["levels"] = self._mg.report["levels"]
         elif unknowns:
-            solid = self.mask & ~empty
+            self._sparse(self.solver)
+        self.report["seconds"] = {"check": t - t0, "setup": time.perf_counter() - t}
+
+    def _sparse(self, solver):
+        """The sparse Laplacian of the solid and a surface-style solver on it (built once)."""
+        if self._hs is None:
+            solid = self.mask & ~self.empty
+            unknowns = int(self.free.sum())
+            check_fits(fill_memory(self.mask.shape, unknowns, solver, self.connectivity),
+                       f"the harmonic fill of {unknowns:,} voxels ({solver})",
+                       "lower the resolution or crop the grid to the solid")
             L = voxel_laplacian(solid, self.spacing, self.connectivity)
             b = np.flatnonzero(self.fixed[solid])
-            self._hs = HarmonicSolver.from_laplacian(L, b, solver=self.solver, tol=tol, maxiter=maxiter,
-                                                     symmetric_pattern=True)
+            self._hs = HarmonicSolver.from_laplacian(L, b, solver=solver, tol=self._tol_arg,
+                                                     maxiter=self._maxiter_arg, symmetric_pattern=True)
             self._solid = solid
-        self.report["seconds"] = {"check": t - t0, "setup": time.perf_counter() - t}
 
     def solve(self, values):
         """The harmonic fill for the given fixed values.
@@ -182,7 +195,11 @@ class VoxelFill:
         """
         t = time.perf_counter()
         k = int(self.fixed.sum())
-        arr = np.asarray(values, dtype=np.float64) if not isinstance(values, np.ndarray) else values
+        try:
+            arr = np.asarray(values, dtype=np.float64) if not isinstance(values, np.ndarray) else values
+        except (TypeError, ValueError):
+            raise SampleError("values could not be read as numbers; pass a float array shaped like the mask, "
+                              "or (k,) / (k, p) values per fixed voxel") from None
         if arr.shape[:3] == self.mask.shape and arr.ndim in (3, 4):
             arr = arr[self.fixed]
         bc, squeeze = as_values(arr, k, what="values")
@@ -190,18 +207,26 @@ class VoxelFill:
         out[self.fixed] = bc
         iterations = []
         for j in range(bc.shape[1]):
+            x = None
             if self._mg is not None:
                 g = np.zeros(self.mask.shape)
                 g[self.fixed] = bc[:, j]
                 x, it, rel = self._mg.solve(self._mg.rhs(self._mg.pad(g[self._crop])), tol=self.tol,
                                             maxiter=self.maxiter)
-                if not rel <= self.tol:
-                    raise SolveError(f"the multigrid fill stopped at relative residual {rel:.1e} after {it} "
-                                     f"iterations (asked: {self.tol:.0e}); raise maxiter or loosen tol")
-                free = self.free[self._crop]
-                out[..., j][self._crop][free] = self._mg.unpad(x)[free]
                 iterations.append(it)
-            elif self._hs is not None:
+                if rel <= self.tol:
+                    free = self.free[self._crop]
+                    out[..., j][self._crop][free] = self._mg.unpad(x)[free]
+                elif not self._auto or it >= self.maxiter:
+                    raise SolveError(f"the multigrid fill stopped at relative residual {rel:.1e} after {it} "
+                                     f"iterations (asked: {self.tol:.0e}); use solver='amg', raise maxiter or "
+                                     f"loosen tol")
+                else:
+                    # the grid hierarchy lost the fixed voxels (e.g. a few isolated ones): sparse AMG instead
+                    x = None
+                    self._sparse("amg")
+                    self.report["fallback"] = f"amg (multigrid stalled at {rel:.1e} after {it} iterations)"
+            if x is None and self._hs is not None:
                 xs = self._hs.solve(bc[:, j])
                 field = out[..., j]
                 field[self._solid] = xs

@@ -25,6 +25,7 @@ mask, so fixing D encloses the inside for every connectivity.
 """
 
 import itertools
+import numbers
 
 import numpy as np
 import scipy.sparse as sp
@@ -51,9 +52,9 @@ def as_connectivity(connectivity):
     """``connectivity`` as an int from ``CONNECTIVITY``, or :class:`~manifill.errors.OptionError`."""
     try:
         c = int(connectivity)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         c = None
-    if c not in CONNECTIVITY or (isinstance(connectivity, float) and connectivity != c):
+    if c not in CONNECTIVITY or (isinstance(connectivity, numbers.Real) and connectivity != c):  # 6.5 is not 6
         raise OptionError(f"connectivity={connectivity!r} is not one of 6, 18, 26; pass one of those")
     return c
 

@@ -39,7 +39,6 @@ def exact(n):
 
 def one(n, solver):
     """One fill in this process; prints a JSON line."""
-    from manifill import harmonic_fill
     from manifill.voxels import boundary_voxels
 
     mask = ball(n)

@@ -1,0 +1,166 @@
+"""Pictures of a reconstruction: PNG renders made off-screen with pyvista (the ``[viz]`` extra).
+
+The surface coloured by the field with a colour bar, the samples as points, the
+partition curves as lines; several panels side by side like the paper's figures;
+three orthogonal slices through a solid. Everything renders off-screen, so it works
+on a machine with no display.
+"""
+
+import numpy as np
+
+from .errors import WriteError
+
+__all__ = ["render", "render_panels", "render_slices"]
+
+
+def _pv():
+    try:
+        import pyvista as pv
+    except ImportError:
+        raise ImportError("rendering needs pyvista: pip install 'manifill[viz]'") from None
+    pv.OFF_SCREEN = True
+    return pv
+
+
+def _polydata(pv, V, F):
+    faces = np.column_stack([np.full(len(F), 3), np.asarray(F, dtype=np.int64)]).ravel()
+    return pv.PolyData(np.asarray(V, dtype=np.float64), faces)
+
+
+def _add_surface(pl, pv, panel, clim, cmap):
+    V, F = panel["V"], panel["F"]
+    mesh = _polydata(pv, V, F)
+    values = panel.get("values")
+    name = panel.get("name", "value")
+    if values is not None:
+        mesh.point_data[name] = np.asarray(values, dtype=np.float64)
+        pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, smooth_shading=True, nan_color="lightgrey",
+                    scalar_bar_args={"title": name, "vertical": False, "n_labels": 5, "fmt": "%.3g",
+                                     "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08})
+    else:
+        pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
+    curves = panel.get("curves")
+    if curves:
+        pts, lines = [], []
+        start = 0
+        for c in curves:
+            c = np.asarray(c)
+            if len(c) < 2:
+                continue
+            pts.append(V[c])
+            lines.append(np.concatenate([[len(c)], start + np.arange(len(c))]))
+            start += len(c)
+        if pts:
+            pl.add_mesh(pv.PolyData(np.concatenate(pts), lines=np.concatenate(lines)), color="black",
+                        line_width=2)
+    samples = panel.get("samples")
+    if samples is not None and len(samples):
+        pl.add_points(np.asarray(V)[np.asarray(samples)], color="red", point_size=9, render_points_as_spheres=True)
+    if panel.get("title"):
+        pl.add_text(panel["title"], font_size=11, position="upper_edge")
+
+
+def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=True, view=None):
+    """Render surfaces side by side into one PNG.
+
+    Parameters
+    ----------
+    panels : list of dict
+        Each with ``V`` (n, 3), ``F`` (m, 3) and optionally ``values`` (n,),
+        ``samples`` (k,) vertex indices, ``curves`` (list of vertex paths),
+        ``title`` and ``name`` (of the field, for the colour bar).
+    path : str or Path
+        The PNG to write.
+    size : (int, int), optional
+        Width and height in pixels.
+    cmap : str, optional
+        A matplotlib colour map name.
+    same_scale : bool, optional
+        One colour range for all panels (to compare them).
+    view : tuple of 3 floats, optional
+        Direction the camera looks from (default: pyvista's isometric view).
+
+    Raises
+    ------
+    ImportError
+        Without pyvista.
+    WriteError
+        If the image cannot be written.
+    """
+    pv = _pv()
+    clim = None
+    if same_scale:
+        finite = [np.asarray(p["values"])[np.isfinite(p["values"])] for p in panels if p.get("values") is not None]
+        finite = [f for f in finite if f.size]
+        if finite:
+            clim = [float(min(f.min() for f in finite)), float(max(f.max() for f in finite))]
+    pl = pv.Plotter(off_screen=True, shape=(1, len(panels)), window_size=list(size), border=False)
+    for j, panel in enumerate(panels):
+        pl.subplot(0, j)
+        _add_surface(pl, pv, panel, clim, cmap)
+        if view is not None:
+            pl.view_vector(view)
+        pl.set_background("white")
+    if len(panels) > 1:
+        pl.link_views()
+    try:
+        pl.screenshot(str(path))
+    except (OSError, ValueError) as exc:
+        raise WriteError(f"{path}: could not write the image ({exc}); check the path") from None
+    finally:
+        pl.close()
+
+
+def render(V, F, values, path, *, samples=None, curves=None, title=None, name="value", size=(900, 700),
+           cmap="viridis", view=None):
+    """Render one surface coloured by a field into a PNG.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+    F : (m, 3) numpy array of int
+    values : (n,) numpy array or None
+    path : str or Path
+    samples : (k,) array of int, optional
+        Drawn as red points.
+    curves : list of (l,) int arrays, optional
+        Drawn as black lines.
+    title, name, size, cmap, view
+        See :func:`render_panels`.
+    """
+    render_panels([dict(V=V, F=F, values=values, samples=samples, curves=curves, title=title, name=name)], path,
+                  size=size, cmap=cmap, view=view)
+
+
+def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 450), cmap="viridis"):
+    """Three orthogonal slices through the middle of a voxel field, side by side.
+
+    Parameters
+    ----------
+    values : (n0, n1, n2) numpy array
+        NaN outside the solid.
+    spacing, origin : (3,) array_like
+    path : str or Path
+    """
+    pv = _pv()
+    grid = pv.ImageData(dimensions=values.shape, spacing=tuple(map(float, spacing)), origin=tuple(map(float, origin)))
+    grid.point_data[name] = np.asarray(values, dtype=np.float64).ravel(order="F")
+    finite = values[np.isfinite(values)]
+    clim = [float(finite.min()), float(finite.max())] if finite.size else None
+    pl = pv.Plotter(off_screen=True, shape=(1, 3), window_size=list(size), border=False)
+    for j, (normal, label) in enumerate((("x", "x"), ("y", "y"), ("z", "z"))):
+        pl.subplot(0, j)
+        sl = grid.slice(normal=normal)
+        sl = sl.threshold(value=clim, scalars=name) if clim else sl
+        pl.add_mesh(sl, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0,
+                    scalar_bar_args={"title": name, "vertical": False, "fmt": "%.3g", "position_x": 0.15,
+                                     "position_y": 0.04, "width": 0.7, "height": 0.08})
+        pl.add_text(f"slice across {label}", font_size=10, position="upper_edge")
+        pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal])
+        pl.set_background("white")
+    try:
+        pl.screenshot(str(path))
+    except (OSError, ValueError) as exc:
+        raise WriteError(f"{path}: could not write the image ({exc}); check the path") from None
+    finally:
+        pl.close()

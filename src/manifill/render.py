@@ -51,8 +51,15 @@ def _add_surface(pl, pv, panel, clim, cmap):
             lines.append(np.concatenate([[len(c)], start + np.arange(len(c))]))
             start += len(c)
         if pts:
-            pl.add_mesh(pv.PolyData(np.concatenate(pts), lines=np.concatenate(lines)), color="black",
-                        line_width=2)
+            poly = pv.PolyData(np.concatenate(pts), lines=np.concatenate(lines))
+            if panel.get("colour_curves") and values is not None:
+                # the curves themselves carry the values (e.g. Step 4 before the fill): thick, coloured
+                poly.point_data[name] = np.concatenate([np.asarray(values)[np.asarray(c)] for c in curves
+                                                        if len(c) >= 2])
+                pl.add_mesh(poly, scalars=name, cmap=cmap, clim=clim, line_width=6, render_lines_as_tubes=True,
+                            show_scalar_bar=False)
+            else:
+                pl.add_mesh(poly, color="black", line_width=2)
     samples = panel.get("samples")
     if samples is not None and len(samples):
         pl.add_points(np.asarray(V)[np.asarray(samples)], color="red", point_size=9, render_points_as_spheres=True)
@@ -68,6 +75,7 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
     panels : list of dict
         Each with ``V`` (n, 3), ``F`` (m, 3) and optionally ``values`` (n,),
         ``samples`` (k,) vertex indices, ``curves`` (list of vertex paths),
+        ``colour_curves`` (draw the curves thick and coloured by ``values``),
         ``title`` and ``name`` (of the field, for the colour bar).
     path : str or Path
         The PNG to write.

@@ -9,6 +9,8 @@ half-written.
 """
 
 import argparse
+import contextlib
+import io
 import json
 import os
 import sys
@@ -214,12 +216,29 @@ def cmd_reconstruct(args):
     from .reconstruct import reconstruct
 
     out = _check_output(args.output)
+    _check_pictures(args)
     V, F, S = _load(args)
-    r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
-                    distance=args.distance, levels=_levels(args.levels), curve_values=args.curve_values,
-                    solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates)
+    bar = _bar(args, 5)
+    try:
+        r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
+                        distance=args.distance, levels=_levels(args.levels), curve_values=args.curve_values,
+                        solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates, progress=bar)
+    finally:
+        bar.close()
     X = r.values if r.values.ndim == 2 else r.values[:, None]
-    if out.suffix.lower() in (".csv", ".npy"):
+    if args.subdivide:
+        from .subdivide import subdivide
+
+        V2, F2, X2 = subdivide(V, F, X, levels=args.subdivide)
+        if out.suffix.lower() in (".csv", ".npy"):
+            write_values(out, X2, S.names)
+        else:
+            from .io import write_mesh
+
+            write_mesh(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
+        print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
+              f"the curve and patch masks are not written)")
+    elif out.suffix.lower() in (".csv", ".npy"):
         write_values(out, X, S.names)
     else:
         fields = {name: X[:, j] for j, name in enumerate(S.names)}
@@ -242,8 +261,9 @@ def cmd_reconstruct(args):
         its = h.get("iterations")
         print(f"steps 5-6: harmonic fill, weights={h['weights']}, solver={h['solver']}"
               + (f", {', '.join(map(str, its))} iterations" if its else ""))
-    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in rep["seconds"].items()))
+    _print_time(args, rep["seconds"])
     _print_ranges(X, S, out)
+    _pictures(args, V, F, X[:, 0], S, curves=r.curves, title=f"{args.method}: {S.names[0]}")
     return 0
 
 
@@ -262,10 +282,7 @@ def _triple(text, what):
 def cmd_volume(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
     from .errors import ReadError, WriteError
-    from .io import read_mesh, read_samples
-    from .solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
-    from .tets import boundary_faces
-    from .volio import GRID_FORMATS, TET_FORMATS, has_tets, read_mask, read_tets, write_tets, write_vti
+    from .volio import GRID_FORMATS, TET_FORMATS, has_tets
 
     out = Path(args.output)
     ext, src = out.suffix.lower(), Path(args.mesh).suffix.lower()
@@ -278,8 +295,25 @@ def cmd_volume(args):
         raise WriteError(f"{out.name}: a {form} result is written as {' or '.join(allowed)}; change the output name")
     if not out.parent.is_dir():
         raise WriteError(f"folder {out.parent} does not exist; create it first or choose another output path")
+    _check_pictures(args)
+    bar = _bar(args, 7)
     surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
-                        levels=_levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates)
+                        levels=_levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
+                        progress=bar)
+    try:
+        r, S, form = _volume_run(args, kind, form, surface_opts)
+    finally:
+        bar.close()
+    return _volume_write(args, out, ext, r, S, form)
+
+
+def _volume_run(args, kind, form, surface_opts):
+    """Read the solid and the samples, run Steps 1-8; print what was read."""
+    from .io import read_mesh, read_samples
+    from .solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
+    from .tets import boundary_faces
+    from .volio import read_mask, read_tets
+
     if kind == "mask":
         mask, h, o = read_mask(args.mesh, field=args.mask_field)
         h = _triple(args.spacing, "spacing") if args.spacing else (h if h is not None else [1.0, 1.0, 1.0])
@@ -308,6 +342,14 @@ def cmd_volume(args):
                                fill_solver=args.fill_solver, fill_weights=args.fill_weights,
                                allow_open=args.allow_open, weights=args.weights, solver=args.solver, **surface_opts)
         print(f"surface: {len(V):,} vertices, {len(F):,} faces")
+    return r, S, form
+
+
+def _volume_write(args, out, ext, r, S, form):
+    """Write the volume result (and its picture), print the summary."""
+    from .tets import boundary_faces
+    from .volio import write_tets, write_vti
+
     X = r.values if r.values.ndim == (4 if form == "voxels" else 2) else r.values[..., None]
     fields = {name: X[..., j] for j, name in enumerate(S.names)}
     if form == "voxels":
@@ -324,7 +366,17 @@ def cmd_volume(args):
         fields[next(m for m in ("boundary", "boundary_mask", "manifill_boundary") if m not in fields)] = boundary
         write_tets(out, r.TV, r.TT, fields)
         print(f"tets: {len(r.TV):,} vertices, {len(r.TT):,} tetrahedra")
-    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in r.report["seconds"].items()))
+    _print_time(args, r.report["seconds"])
+    if getattr(args, "render", None):
+        if form == "voxels":
+            from .render import render_slices
+
+            render_slices(X[..., 0], r.spacing, r.origin, args.render, name=S.names[0])
+        else:
+            from .render import render
+
+            render(r.TV, boundary_faces(r.TT), X[:, 0], args.render, name=S.names[0], title="boundary of the solid")
+        print(f"rendered {args.render}")
     finite = X[np.isfinite(X[..., 0])]
     lo, hi = S.vals.min(axis=0), S.vals.max(axis=0)
     for j, name in enumerate(S.names):
@@ -332,6 +384,50 @@ def cmd_volume(args):
               f"{finite[:, j].max():.4g}]")
     print(f"wrote {out}")
     return 0
+
+
+def _bar(args, total):
+    from .progress import StepBar
+
+    return StepBar(total, enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
+
+
+def _print_time(args, seconds):
+    """The total time, and with --verbose every step's."""
+    if getattr(args, "verbose", False):
+        print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in seconds.items()))
+    else:
+        print(f"time: {seconds.get('total', sum(seconds.values())):.2f} s (--verbose: per step)")
+
+
+def _check_pictures(args):
+    """The picture outputs' names, checked before any work is done."""
+    from .errors import WriteError
+
+    for opt, ext in (("render", ".png"), ("html", ".html")):
+        path = getattr(args, opt, None)
+        if path is None:
+            continue
+        p = Path(path)
+        if p.suffix.lower() != ext:
+            raise WriteError(f"{p.name}: --{opt} writes a {ext} file; change the name")
+        if not p.parent.is_dir():
+            raise WriteError(f"folder {p.parent} does not exist; create it first or choose another path for --{opt}")
+
+
+def _pictures(args, V, F, values, S, curves=None, title=None):
+    """--render PNG and --html viewer of a surface result."""
+    if getattr(args, "render", None):
+        from .render import render
+
+        render(V, F, values, args.render, samples=S.idx, curves=curves, title=title, name=S.names[0])
+        print(f"rendered {args.render}")
+    if getattr(args, "html", None):
+        from .viewer import write_html
+
+        write_html(args.html, V, F, values, samples=S.idx, curves=curves, title=title or "manifill",
+                   name=S.names[0])
+        print(f"wrote the viewer {args.html}")
 
 
 def cmd_demo(args):
@@ -366,6 +462,19 @@ def _fill_args(s):
                    help="a component without samples: error (default) or fill with NaN")
 
 
+def _picture_args(s):
+    s.add_argument("--render", default=None, metavar="OUT.png",
+                   help="also render the result (field, samples, curves) as a PNG, off-screen (needs pyvista)")
+    s.add_argument("--html", default=None, metavar="OUT.html",
+                   help="also write an interactive viewer: one self-contained HTML file that opens offline")
+
+
+def _output_args(s):
+    g = s.add_mutually_exclusive_group()
+    g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors (no progress bar)")
+    g.add_argument("-v", "--verbose", action="store_true", help="also print the time of every step")
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with manifill's one-line errors (exit status 2)."""
 
@@ -396,6 +505,7 @@ def build_parser():
                                    "with the weighted average of its neighbours (discrete harmonic).")
     _sample_args(s)
     _fill_args(s)
+    _output_args(s)
     s.set_defaults(func=cmd_harmonic)
 
     s = sub.add_parser("check", help="check the gradual variation condition of samples (Step 1)",
@@ -421,6 +531,10 @@ def build_parser():
     s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
+    s.add_argument("--subdivide", type=int, default=0, metavar="K",
+                   help="Loop-subdivide the result K times before writing it (a smoother surface)")
+    _picture_args(s)
+    _output_args(s)
     s.set_defaults(func=cmd_reconstruct)
 
     s = sub.add_parser("volume", help="reconstruct inside a solid from samples on its boundary (Steps 1-8)",
@@ -456,12 +570,16 @@ def build_parser():
     s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
+    s.add_argument("--render", default=None, metavar="OUT.png",
+                   help="also render three slices through the solid (voxels) or its boundary (tets) as a PNG")
+    _output_args(s)
     s.set_defaults(func=cmd_volume)
 
     s = sub.add_parser("demo", help="run the built-in example (nothing downloaded)",
                        description="Reconstruct a known field on a generated sphere, write the results "
                                    "and print the error.")
     s.add_argument("-o", "--output", default="manifill-demo", help="output folder (default: ./manifill-demo)")
+    _output_args(s)
     s.set_defaults(func=cmd_demo)
     return p
 
@@ -485,6 +603,9 @@ def main(argv=None):
     except SystemExit as exc:
         return int(exc.code or 0)
     try:
+        if getattr(args, "quiet", False):
+            with contextlib.redirect_stdout(io.StringIO()):
+                return args.func(args)
         return args.func(args)
     except BrokenPipeError:
         # the reader went away (e.g. `manifill info --json m.ply | head`): stop quietly

@@ -23,6 +23,7 @@ from .harmonic import ON_EMPTY, HarmonicSolver
 from .laplacian import WEIGHTS, _laplacian
 from .partition import PARTITIONS
 from .partition import partition as _partition
+from .progress import tick
 from .solvers import ITERATIONS, SOLVERS
 from .topology import EdgeIndex
 from .validate import as_mesh, as_samples, check_option
@@ -67,7 +68,7 @@ class Reconstruction:
 def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
                 distance="length", levels=None, curve_values="hermite", solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
-                tol=None, maxiter=None):
+                tol=None, maxiter=None, progress=None):
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
 
     Parameters
@@ -118,6 +119,9 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         Seed of ``init='random'``.
     tol, maxiter : optional
         Passed to the solver.
+    progress : callable, optional
+        Called with the name of each step as it starts (e.g.
+        :class:`manifill.progress.StepBar`).
 
     Returns
     -------
@@ -145,6 +149,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
     seconds = {"validate": time.perf_counter() - t0}
 
+    tick(progress, "graph")
     t = time.perf_counter()
     index = EdgeIndex(F, n)
     G_hops = mesh_graph(V, F, distance="hops", index=index)
@@ -153,7 +158,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     surface = _Surface(V, G_hops, G, lambda w: _laplacian(V, F, w, index), F=F)
     return _pipeline(surface, idx, vals, squeeze, seconds, t0, method=method, partition=partition, weights=weights,
                      levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
-                     iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter)
+                     iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, progress=progress)
 
 
 def _check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init):
@@ -186,7 +191,7 @@ class _Surface:
 
 
 def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, weights, levels, curve_values,
-              solver, on_empty, iteration, init, seed, tol, maxiter):
+              solver, on_empty, iteration, init, seed, tol, maxiter, progress=None):
     """Steps 1-6 on a validated surface and validated samples."""
     V, F, G_hops, G = surface.V, surface.F, surface.G_hops, surface.G
     n = len(V)
@@ -196,6 +201,7 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
     # constant of Step 1 from below, which saves Step 1 a shortest-path pass
     part, starts = None, [None] * vals.shape[1]
     if method == "gvf-harmonic":
+        tick(progress, "partition")
         t = time.perf_counter()
         part = _partition(V, F, idx, G, method=partition)
         seconds["partition"] = time.perf_counter() - t
@@ -209,6 +215,7 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
                 starts[j] = (float(ratio[best]), (int(pos[best, 0]), int(pos[best, 1])))
 
     # Step 1: levels and the gradual variation condition (hop distance), per field
+    tick(progress, "check")
     t = time.perf_counter()
     checks = [check_gradual(G_hops, idx, vals[:, j], levels=levels, distance="hops", start=starts[j])
               for j in range(vals.shape[1])]
@@ -237,6 +244,7 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
     fixed = np.zeros(n, dtype=bool)
     fixed[idx] = True
     if method == "gvf":
+        tick(progress, "gvf")
         t = time.perf_counter()
         X = fit_gvf()
         seconds["gvf"] = time.perf_counter() - t
@@ -254,6 +262,7 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
             # Step 4: values on the curves of the partition (Steps 2-3, above)
             report["partition"] = part.report
             curves, components, fixed = part.curves, part.labels, part.on_curve.copy()
+            tick(progress, "curve values")
             t = time.perf_counter()
             if curve_values == "gvf":
                 cols = [_curve_values(V, part.curve_edges(), idx, vals[:, j], method="gvf",
@@ -266,6 +275,7 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
         else:
             b, bc = idx, vals
         # Steps 5-6: harmonic fill of every patch
+        tick(progress, "harmonic fill")
         t = time.perf_counter()
         L = surface.laplacian(weights)
         hs = HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, iteration=iteration,

@@ -6,6 +6,9 @@ three orthogonal slices through a solid. Everything renders off-screen, so it wo
 on a machine with no display.
 """
 
+import ctypes.util
+import os
+
 import numpy as np
 
 from .errors import WriteError
@@ -14,6 +17,9 @@ __all__ = ["render", "render_panels", "render_slices"]
 
 
 def _pv():
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") and ctypes.util.find_library("EGL"):
+        # no display: an EGL off-screen window, without first failing to reach an X server
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     try:
         import pyvista as pv
     except ImportError:
@@ -67,7 +73,7 @@ def _add_surface(pl, pv, panel, clim, cmap):
         pl.add_text(panel["title"], font_size=11, position="upper_edge")
 
 
-def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=True, view=None):
+def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=True, view=None, viewup=None):
     """Render surfaces side by side into one PNG.
 
     Parameters
@@ -87,6 +93,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         One colour range for all panels (to compare them).
     view : tuple of 3 floats, optional
         Direction the camera looks from (default: pyvista's isometric view).
+    viewup : tuple of 3 floats, optional
+        The direction that points up in the picture (with ``view``).
 
     Raises
     ------
@@ -107,7 +115,7 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         pl.subplot(0, j)
         _add_surface(pl, pv, panel, clim, cmap)
         if view is not None:
-            pl.view_vector(view)
+            pl.view_vector(view, viewup=viewup)
         pl.set_background("white")
     if len(panels) > 1:
         pl.link_views()
@@ -120,7 +128,7 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
 
 
 def render(V, F, values, path, *, samples=None, curves=None, title=None, name="value", size=(900, 700),
-           cmap="viridis", view=None):
+           cmap="viridis", view=None, viewup=None):
     """Render one surface coloured by a field into a PNG.
 
     Parameters
@@ -133,11 +141,11 @@ def render(V, F, values, path, *, samples=None, curves=None, title=None, name="v
         Drawn as red points.
     curves : list of (l,) int arrays, optional
         Drawn as black lines.
-    title, name, size, cmap, view
+    title, name, size, cmap, view, viewup
         See :func:`render_panels`.
     """
     render_panels([dict(V=V, F=F, values=values, samples=samples, curves=curves, title=title, name=name)], path,
-                  size=size, cmap=cmap, view=view)
+                  size=size, cmap=cmap, view=view, viewup=viewup)
 
 
 def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 450), cmap="viridis"):
@@ -164,7 +172,8 @@ def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 45
                     scalar_bar_args={"title": name, "vertical": False, "fmt": "%.3g", "position_x": 0.15,
                                      "position_y": 0.04, "width": 0.7, "height": 0.08})
         pl.add_text(f"slice across {label}", font_size=10, position="upper_edge")
-        pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal])
+        pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal],
+                       viewup=(0, 1, 0) if normal == "z" else (0, 0, 1))
         pl.set_background("white")
     try:
         pl.screenshot(str(path))

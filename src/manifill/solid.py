@@ -25,6 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import SampleError
+from .progress import tick
 from .reconstruct import Reconstruction, _check_options, _pipeline, _Surface, reconstruct
 from .tets import boundary_faces, tetrahedralize
 from .validate import as_mask, as_samples, as_tets, check_option
@@ -123,7 +124,7 @@ def surface_to_points(V, F, values, P):
 
 def _surface_options(options):
     allowed = {"method", "partition", "weights", "distance", "levels", "curve_values", "solver", "on_empty",
-               "duplicates", "iteration", "init", "seed", "tol", "maxiter"}
+               "duplicates", "iteration", "init", "seed", "tol", "maxiter", "progress"}
     bad = sorted(set(options) - allowed)
     if bad:
         raise TypeError(f"unexpected keyword argument {bad[0]!r}; the surface options are those of "
@@ -193,13 +194,16 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     seconds = {"surface": time.perf_counter() - t0}
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
+    progress = options.get("progress")
     if form == "voxels":
         connectivity = as_connectivity(connectivity)
+        tick(progress, "voxelize")
         t = time.perf_counter()
         mask, spacing, origin = voxelize(V, F, resolution, allow_open=allow_open)
         fixed = boundary_voxels(mask, connectivity)
         bc, dist = surface_to_points(V, F, surf.values, voxel_centres(mask.shape, spacing, origin, where=fixed))
         seconds["voxelize"] = time.perf_counter() - t
+        tick(progress, "fill")
         fill = VoxelFill(mask, fixed, spacing=spacing, connectivity=connectivity, solver=fill_solver)
         values = fill.solve(bc)
         seconds["fill"] = sum(fill.report["seconds"].values())
@@ -209,9 +213,11 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
         seconds["total"] = time.perf_counter() - t0
         return VolumeReconstruction(values, "voxels", surf, mask=mask, spacing=spacing, origin=origin, fixed=fixed,
                                     report=report)
+    tick(progress, "tetrahedralize")
     t = time.perf_counter()
     TV, TT = tetrahedralize(V, F, max_volume=max_volume)
     seconds["tetrahedralize"] = time.perf_counter() - t
+    tick(progress, "fill")
     t = time.perf_counter()
     values = tet_fill(TV, TT, np.arange(len(V)), surf.values, weights=fill_weights,
                       solver="auto" if fill_solver in ("auto", "multigrid") else fill_solver)
@@ -261,6 +267,7 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
     local[on_d] = np.arange(on_d.size)
     surf = reconstruct(V[on_d], local[bf], local[idx_arr], vals2[:, 0] if squeeze else vals2, **options)
     seconds = {"surface": time.perf_counter() - t0}
+    tick(options.get("progress"), "fill")
     t = time.perf_counter()
     values = tet_fill(V, T, on_d, surf.values, weights=fill_weights, solver=fill_solver)
     seconds["fill"] = time.perf_counter() - t
@@ -337,7 +344,7 @@ def _graph(n, E, w):
 
 def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6,
                             fill_solver="auto", method="gvf-harmonic", partition="delaunay", distance="length",
-                            levels=None, curve_values="hermite", duplicates="error"):
+                            levels=None, curve_values="hermite", duplicates="error", progress=None):
     """Steps 1-8 on a voxel mask: reconstruct on its digital boundary surface, fill the inside.
 
     Parameters
@@ -352,6 +359,8 @@ def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=
     connectivity : {6, 18, 26}, optional
         Neighbours of the fill (and which voxels are boundary).
     fill_solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
+    progress : callable, optional
+        Told the name of each step as it starts.
     method, partition, distance, levels, curve_values, duplicates
         Steps 1-6, as :func:`manifill.reconstruct`; the patches are filled with
         uniform weights (the paper's average), since a digital surface has no
@@ -416,9 +425,10 @@ def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=
     surface = _Surface(P, G_hops, G, laplacian, normals=normals)
     surf = _pipeline(surface, sidx, svals, squeeze, seconds, t0, method=method, partition=partition,
                      weights="uniform", levels=levels, curve_values=curve_values, solver="auto", on_empty="error",
-                     iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None)
+                     iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, progress=progress)
     fixed = np.zeros(mask.shape, dtype=bool)
     fixed[tuple(voxels.T)] = True
+    tick(progress, "fill")
     t = time.perf_counter()
     fill = VoxelFill(mask, fixed, spacing=h, connectivity=connectivity, solver=fill_solver)
     values = fill.solve(surf.values)

@@ -1,0 +1,245 @@
+"""Seeing the result: Loop subdivision, off-screen renders, the HTML viewer (in headless Chromium), CLI flags."""
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import grid, icosphere
+from manifill import MeshError, OptionError, reconstruct
+from manifill.cli import main
+from manifill.subdivide import loop_matrix, subdivide
+from manifill.viewer import embedded_arrays, write_html
+
+pv = pytest.importorskip("pyvista")
+igl = pytest.importorskip("igl")
+
+
+def png(path):
+    from PIL import Image
+
+    return np.asarray(Image.open(path).convert("RGB"), dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------
+# Loop subdivision
+# ---------------------------------------------------------------------------
+
+
+def test_subdivision_equals_libigl_on_a_regular_mesh_with_boundary():
+    # a flat grid: every inner vertex has valence 6, where every Loop variant agrees; the boundary rules too
+    V, F = grid(7)
+    V2, F2 = subdivide(V, F, levels=2)
+    W, G = igl.loop(V, F.astype(np.int64), 2)
+    assert len(F2) == len(G) == 16 * len(F)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(W).query(V2)
+    assert d.max() < 1e-12
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_subdivision_counts_and_rows(k):
+    V, F = icosphere(1)
+    V2, F2 = subdivide(V, F, levels=k)
+    assert len(F2) == 4**k * len(F)
+    assert len(V2) - len(F2) // 2 == 2  # still a sphere: Euler characteristic 2
+    S, _ = loop_matrix(F, len(V))
+    np.testing.assert_allclose(S.sum(axis=1), 1.0, atol=1e-14)  # averages: constants stay constant
+    assert S.data.min() > 0  # positive weights: the maximum principle
+
+
+@settings(max_examples=25, deadline=None)
+@given(a=st.lists(st.floats(-5, 5), min_size=4, max_size=4))
+def test_linear_fields_follow_the_surface(a):
+    # the field is subdivided with the positions' own stencil: a linear function of position stays one
+    V, F = icosphere(2)
+    f = V @ np.array(a[:3]) + a[3]
+    V2, F2, f2 = subdivide(V, F, f, levels=2)
+    np.testing.assert_allclose(f2, V2 @ np.array(a[:3]) + a[3], atol=1e-10)
+
+
+def test_subdivided_values_stay_within_range_and_keep_columns():
+    V, F = icosphere(2)
+    X = np.random.default_rng(0).random((len(V), 2))
+    _, _, X2 = subdivide(V, F, X, levels=2)
+    assert X2.shape[1] == 2
+    assert X2.min() >= X.min() - 1e-12 and X2.max() <= X.max() + 1e-12
+    _, _, x2 = subdivide(V, F, X[:, 1], levels=2)
+    np.testing.assert_allclose(x2, X2[:, 1])
+
+
+def test_subdivision_commutes_with_relabelling():
+    V, F = icosphere(2)
+    perm = np.random.default_rng(1).permutation(len(V))
+    inv = np.argsort(perm)
+    A, _ = subdivide(V, F, levels=1)
+    B, _ = subdivide(V[perm], inv[F], levels=1)
+    key = lambda P: np.lexsort(np.round(P, 9).T)  # noqa: E731
+    np.testing.assert_allclose(A[key(A)], B[key(B)], atol=1e-12)
+
+
+@pytest.mark.parametrize("levels", [-1, 1.5, True, "2"])
+def test_subdivision_bad_levels(levels):
+    V, F = icosphere(1)
+    with pytest.raises(OptionError):
+        subdivide(V, F, levels=levels)
+
+
+def test_subdivision_bad_mesh():
+    with pytest.raises(MeshError):
+        subdivide(np.zeros((3, 3)), [[0, 1, 5]])
+
+
+# ---------------------------------------------------------------------------
+# renders
+# ---------------------------------------------------------------------------
+
+
+def test_render_has_the_size_and_is_not_blank(tmp_path):
+    from manifill.render import render
+
+    V, F = icosphere(3)
+    path = tmp_path / "a.png"
+    render(V, F, V[:, 2], path, samples=[0, 1, 2], size=(320, 240))
+    img = png(path)
+    assert img.shape == (240, 320, 3)
+    assert img.std() > 10  # not one colour
+
+
+def test_render_colours_follow_the_field(tmp_path):
+    # a field rising left to right, seen from the front: the picture's colour (viridis: dark to bright)
+    # brightens across the image
+    from manifill.render import render
+
+    V, F = grid(30)
+    V = np.column_stack([V[:, 0], V[:, 1], np.zeros(len(V))])
+    path = tmp_path / "lin.png"
+    render(V, F, V[:, 0], path, size=(400, 400), view=(0, 0, 1), viewup=(0, 1, 0))
+    img = png(path)[150:250] / 255  # the middle band, above the colour bar
+    # each pixel's place on the colour map: the nearest of 256 viridis colours (lighting scales brightness,
+    # so compare directions in colour space)
+    from matplotlib import colormaps
+
+    lut = colormaps["viridis"](np.linspace(0, 1, 256))[:, :3]
+    px = img.reshape(-1, 3)
+    sim = (px / np.linalg.norm(px, axis=1, keepdims=True)) @ (lut / np.linalg.norm(lut, axis=1, keepdims=True)).T
+    where = sim.argmax(axis=1).reshape(img.shape[:2]).astype(float)
+    coloured = np.abs(img - 1).sum(axis=2) > 0.1  # not the white background
+    cols = [where[:, a:b][coloured[:, a:b]].mean() for a, b in ((80, 140), (170, 230), (260, 320))]
+    assert cols[0] + 20 < cols[1] < cols[2] - 20
+
+
+def test_slices_and_panels(tmp_path):
+    from manifill.render import render_panels, render_slices
+
+    x, y, z = np.indices((20, 20, 20)) - 9.5
+    vals = np.where(x**2 + y**2 + z**2 < 81, x / 10.0, np.nan)
+    render_slices(vals, (1, 1, 1), (0, 0, 0), tmp_path / "s.png", size=(600, 200))
+    assert png(tmp_path / "s.png").shape == (200, 600, 3) and png(tmp_path / "s.png").std() > 10
+    V, F = icosphere(2)
+    render_panels([dict(V=V, F=F, values=V[:, 0]), dict(V=V, F=F, values=None, curves=[np.arange(5)])],
+                  tmp_path / "p.png", size=(500, 250))
+    assert png(tmp_path / "p.png").shape == (250, 500, 3)
+
+
+# ---------------------------------------------------------------------------
+# the HTML viewer
+# ---------------------------------------------------------------------------
+
+
+def test_viewer_holds_the_mesh_and_the_values(tmp_path):
+    V, F = icosphere(3)
+    idx = np.arange(0, len(V), 17)
+    r = reconstruct(V, F, idx, V[idx, 0])
+    path = tmp_path / "v.html"
+    write_html(path, V, F, r.values, samples=idx, curves=r.curves, title="t <&> t", name="temp")
+    a = embedded_arrays(path)
+    np.testing.assert_allclose(a["positions"], V, atol=1e-6)
+    assert (a["faces"] == F).all()
+    np.testing.assert_allclose(a["values"], r.values, rtol=1e-6)
+    assert a["samples"].tolist() == idx.tolist()
+    assert len(a["segments"]) == sum(len(c) - 1 for c in r.curves)
+    text = path.read_text()
+    assert "t &lt;&amp;&gt; t" in text and "<script src" not in text and "http" not in text.split("<script>")[1]
+
+
+def chromium():
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(chromium() is None, reason="needs Debian's chromium (.ci/run installs it: apt-get install chromium)")
+def test_viewer_draws_in_headless_chromium(tmp_path):
+    V, F = icosphere(4)
+    idx = np.arange(0, len(V), 97)
+    r = reconstruct(V, F, idx, V[idx, 0] + V[idx, 2])
+    page = tmp_path / "v.html"
+    write_html(page, V, F, r.values, samples=idx, curves=r.curves)
+    shot = tmp_path / "shot.png"
+    cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
+           "--enable-unsafe-swiftshader", "--no-first-run", "--disable-background-networking",
+           "--disable-component-update", "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}",
+           "--window-size=640,480", f"--screenshot={shot}", page.as_uri()]
+    subprocess.run(cmd, capture_output=True, timeout=120, check=False)
+    img = png(shot)
+    assert img.shape == (480, 640, 3)
+    centre = img[140:340, 220:420]  # the sphere fills the middle: coloured, varied, not the white page
+    assert centre.std() > 15 and (np.abs(centre - 255).sum(axis=2) > 60).mean() > 0.9
+
+
+# ---------------------------------------------------------------------------
+# the command line
+# ---------------------------------------------------------------------------
+
+
+def test_cli_render_html_subdivide_quiet(tmp_path, capsys):
+    from manifill.io import write_mesh
+
+    V, F = icosphere(2)
+    write_mesh(tmp_path / "m.ply", V, F)
+    idx = np.arange(0, len(V), 6)
+    (tmp_path / "s.csv").write_text("vertex,t\n" + "".join(f"{i},{V[i, 0]}\n" for i in idx))
+    code = main(["reconstruct", str(tmp_path / "m.ply"), str(tmp_path / "s.csv"), "-o", str(tmp_path / "o.ply"),
+                 "--render", str(tmp_path / "o.png"), "--html", str(tmp_path / "o.html"), "--subdivide", "1",
+                 "--quiet"])
+    out, err = capsys.readouterr()
+    assert code == 0 and out == ""
+    assert png(tmp_path / "o.png").std() > 10
+    assert len(embedded_arrays(tmp_path / "o.html")["positions"]) == len(V)
+    import meshio
+
+    assert len(meshio.read(tmp_path / "o.ply").cells[0].data) == 4 * len(F)
+    code = main(["reconstruct", str(tmp_path / "m.ply"), str(tmp_path / "s.csv"), "-o", str(tmp_path / "p.ply"),
+                 "--verbose"])
+    out, _ = capsys.readouterr()
+    assert code == 0 and "partition" in out.split("time:")[1]
+
+
+@pytest.mark.parametrize("flag, name", [("--render", "x.jpg"), ("--html", "x.htm"), ("--render", "no/x.png")])
+def test_cli_bad_picture_names_exit_2_before_work(tmp_path, capsys, flag, name):
+    from manifill.io import write_mesh
+
+    V, F = icosphere(1)
+    write_mesh(tmp_path / "m.ply", V, F)
+    (tmp_path / "s.csv").write_text("vertex,t\n0,1\n5,2\n")
+    code = main(["reconstruct", str(tmp_path / "m.ply"), str(tmp_path / "s.csv"), "-o", str(tmp_path / "o.ply"),
+                 flag, str(tmp_path / name)])
+    out, err = capsys.readouterr()
+    assert code == 2 and err.startswith("manifill: error:") and err.count("\n") == 1
+    assert not (tmp_path / "o.ply").exists()
+
+
+def test_progress_is_told_every_step():
+    from manifill import reconstruct_volume
+
+    V, F = icosphere(2)
+    idx = np.arange(0, len(V), 9)
+    steps = []
+    reconstruct(V, F, idx, V[idx, 0], progress=steps.append)
+    assert steps == ["graph", "partition", "check", "curve values", "harmonic fill"]
+    steps.clear()
+    reconstruct_volume(V, F, idx, V[idx, 0], resolution=12, progress=steps.append)
+    assert steps[-2:] == ["voxelize", "fill"] and steps[0] == "graph"

@@ -243,3 +243,20 @@ def test_progress_is_told_every_step():
     steps.clear()
     reconstruct_volume(V, F, idx, V[idx, 0], resolution=12, progress=steps.append)
     assert steps[-2:] == ["voxelize", "fill"] and steps[0] == "graph"
+
+
+@pytest.mark.skipif(chromium() is None, reason="needs Debian's chromium (.ci/run installs it: apt-get install chromium)")
+def test_viewer_hover_reads_the_value_under_the_pointer(tmp_path):
+    # the page's own picking, run in Chromium: at the centre of the canvas the unit sphere shows the point
+    # R^T e_z of its initial rotation (yaw 0.6, pitch 0.4), where the field z is cos(0.4) cos(0.6)
+    V, F = icosphere(5)
+    page = tmp_path / "v.html"
+    write_html(page, V, F, V[:, 2])
+    cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
+           "--enable-unsafe-swiftshader", "--no-first-run", "--disable-background-networking",
+           "--disable-component-update", "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}",
+           "--window-size=640,480", "--dump-dom", page.as_uri() + "#pick=0.5,0.5"]
+    dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False).stdout
+    value, vertex = dom.split('<div id="pick-result">')[1].split("</div>")[0].split()
+    assert abs(float(value) - np.cos(0.4) * np.cos(0.6)) < 0.01
+    assert abs(V[int(vertex), 2] - float(value)) < 0.02  # the nearest corner of the triangle hit

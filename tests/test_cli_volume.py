@@ -310,7 +310,7 @@ def test_several_fields_to_npy(tmp_path, capsys, sphere):
     vertex_csv(tmp_path / "two.csv", idx, np.column_stack([field(V[idx]), V[idx, 1]]), names=("a", "b"))
     code, out, err = run(capsys, "volume", sphere["path"], tmp_path / "two.csv", "-o", tmp_path / "out.npy",
                          "--resolution", "8")
-    assert "holds one array" in assert_usage_error(code, out, err)
+    assert "holds one field" in assert_usage_error(code, out, err)
     assert not (tmp_path / "out.npy").exists()
     code, out, err = run(capsys, "volume", sphere["path"], tmp_path / "two.csv", "-o", tmp_path / "out.vti",
                          "--resolution", "8")

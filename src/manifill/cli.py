@@ -307,6 +307,14 @@ def cmd_volume(args):
     return _volume_write(args, out, ext, r, S, form)
 
 
+def _one_field_for_npy(args, S):
+    from .errors import WriteError
+
+    if Path(args.output).suffix.lower() == ".npy" and len(S.names) > 1:
+        raise WriteError(f"{Path(args.output).name}: .npy holds one field but the samples have {len(S.names)} "
+                         f"({', '.join(S.names)}); write .vti")
+
+
 def _volume_run(args, kind, form, surface_opts):
     """Read the solid and the samples, run Steps 1-8; print what was read."""
     from .io import read_mesh, read_samples
@@ -320,6 +328,7 @@ def _volume_run(args, kind, form, surface_opts):
         o = _triple(args.origin, "origin") if args.origin else (o if o is not None else [0.0, 0.0, 0.0])
         voxels, P, _, _ = digital_surface(mask, h, o, args.connectivity)
         S = read_samples(args.samples, P, duplicates=args.duplicates, max_distance=args.max_snap)
+        _one_field_for_npy(args, S)
         r = reconstruct_volume_mask(mask, voxels[S.idx], S.vals, spacing=h, origin=o, connectivity=args.connectivity,
                                     fill_solver=args.fill_solver, **surface_opts)
         print(f"voxel mask {mask.shape}, {int(mask.sum()):,} voxels; digital surface {len(voxels):,} voxels")
@@ -327,6 +336,7 @@ def _volume_run(args, kind, form, surface_opts):
         V, T = read_tets(args.mesh)
         on_d = np.unique(boundary_faces(T, V=V))
         S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
+        _one_field_for_npy(args, S)
         if S.snap_distance is not None:  # positions: snap to the boundary, not to inner vertices
             S = read_samples(args.samples, V[on_d], duplicates=args.duplicates, max_distance=args.max_snap)
             S.idx = on_d[S.idx]
@@ -337,6 +347,7 @@ def _volume_run(args, kind, form, surface_opts):
     else:
         V, F = read_mesh(args.mesh)
         S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
+        _one_field_for_npy(args, S)
         r = reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,
                                connectivity=args.connectivity, max_volume=args.max_volume,
                                fill_solver=args.fill_solver, fill_weights=args.fill_weights,

@@ -101,7 +101,7 @@ def test_linear_on_a_network_is_harmonic_on_the_curve_graph(name, method, distan
 # linear functions on a flat grid
 # ---------------------------------------------------------------------------
 
-from conftest import GRID_N as N, GRID_SAMPLES as SAMPLES, grid_vid as vid, linear_field  # noqa: E402
+from conftest import GRID_N as N, GRID_SAMPLES as SAMPLES, linear_field  # noqa: E402
 
 
 def straight(V, c):

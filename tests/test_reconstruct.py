@@ -122,7 +122,7 @@ def test_maximum_principle_per_patch(partition, name, build, seed):
 # linear precision on a flat grid
 # ---------------------------------------------------------------------------
 
-from conftest import GRID_N as N, GRID_SAMPLES as SAMPLES, grid_vid as vid, linear_field  # noqa: E402
+from conftest import GRID_N as N, GRID_SAMPLES as SAMPLES, linear_field  # noqa: E402
 
 
 # the curves must cover the grid's boundary (elsewhere the fill has natural boundary conditions) and be

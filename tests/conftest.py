@@ -261,3 +261,34 @@ GRID_SAMPLES = {
 def linear_field(X):
     """A linear function of position."""
     return 0.3 + 2.0 * X[:, 0] - 1.5 * X[:, 1]
+
+
+# ---------------------------------------------------------------------------
+# the command line, in-process
+# ---------------------------------------------------------------------------
+
+
+def run(capsys, *argv):
+    """``manifill ARGV`` in-process: (exit code, stdout, stderr)."""
+    from manifill.cli import main
+
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_usage_error(code, out, err):
+    """Exit code 2, exactly one line on stderr, ``manifill: error: ...``, no traceback."""
+    assert code == 2
+    assert "Traceback" not in out + err
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("manifill: error: ")
+    return lines[0]
+
+
+def files(folder):
+    """Every file under ``folder``, as sorted relative paths."""
+    from pathlib import Path
+
+    return sorted(p.relative_to(folder).as_posix() for p in Path(folder).rglob("*"))

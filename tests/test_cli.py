@@ -14,31 +14,11 @@ from scipy.spatial import cKDTree
 
 import manifill
 from manifill import harmonic, mesh_info
-from manifill.cli import main
+from conftest import assert_usage_error, files, run
 from manifill.io import read_mesh, write_mesh
 from manifill.shapes import grid, icosphere
 
 pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def assert_usage_error(code, out, err):
-    """Exit code 2, exactly one line on stderr, ``manifill: error: ...``, no traceback."""
-    assert code == 2
-    assert "Traceback" not in out + err
-    lines = err.splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("manifill: error: ")
-    return lines[0]
-
-
-def files(folder):
-    return sorted(p.relative_to(folder).as_posix() for p in Path(folder).rglob("*"))
 
 
 @pytest.fixture

@@ -2,13 +2,12 @@
 
 import functools
 import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import manifill.memory
-from manifill.cli import main
+from conftest import assert_usage_error, files, run
 from manifill.io import write_mesh
 from manifill.shapes import icosphere
 from manifill.tets import boundary_faces, tetrahedralize
@@ -16,26 +15,6 @@ from manifill.volio import read_tets, read_vti, write_tets
 from manifill.voxels import boundary_voxels, voxel_centres
 
 needs_tetgen = pytest.mark.skipif(importlib.util.find_spec("tetgen") is None, reason="tetgen is not installed")
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def assert_usage_error(code, out, err):
-    """Exit code 2, exactly one line on stderr, ``manifill: error: ...``, no traceback."""
-    assert code == 2
-    assert "Traceback" not in out + err
-    lines = err.splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("manifill: error: ")
-    return lines[0]
-
-
-def files(folder):
-    return sorted(p.relative_to(folder).as_posix() for p in Path(folder).rglob("*"))
 
 
 def field(X):

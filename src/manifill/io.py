@@ -109,7 +109,6 @@ def read_mesh(path):
         A missing file, an unknown extension, a file meshio cannot parse, or
         a file without triangles or quads.
     """
-    import meshio
 
     path = Path(path)
     ext = _suffix(path, tuple(MESH_FORMATS), "read")
@@ -117,11 +116,7 @@ def read_mesh(path):
         raise ReadError(f"{path}: no such file")
     if ext == ".off":
         _check_off_header(path)
-    try:
-        mesh = getattr(meshio, MESH_FORMATS[ext][0]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
-    except (meshio.ReadError, ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ReadError(f"{path.name}: not a readable {ext[1:].upper()} mesh ({msg}); check the file") from None
+    mesh = _meshio_read(path, ext, MESH_FORMATS[ext][0])
     faces = []
     for block in mesh.cells:
         if block.type == "triangle":
@@ -136,6 +131,17 @@ def read_mesh(path):
     if V.ndim == 2 and V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
     return V, np.concatenate(faces).astype(np.int64)
+
+
+def _meshio_read(path, ext, fmt):
+    """meshio's reader of one format, with its failures as one-line :class:`ReadError`."""
+    import meshio
+
+    try:
+        return getattr(meshio, fmt).read(str(path))  # not meshio.read: it sys.exit()s on bad files
+    except (meshio.ReadError, ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
+        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ReadError(f"{path.name}: not a readable {ext[1:].upper()} mesh ({msg}); check the file") from None
 
 
 def _check_off_header(path):

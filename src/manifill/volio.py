@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ReadError, WriteError
-from .io import _suffix, atomic_path
+from .io import _meshio_read, _suffix, atomic_path
 
 __all__ = ["TET_FORMATS", "GRID_FORMATS", "read_tets", "write_tets", "write_vti", "read_vti", "read_mask"]
 
@@ -50,17 +50,11 @@ def read_tets(path):
     ReadError
         Missing file, unknown extension, unparsable file, or no tetrahedra.
     """
-    import meshio
-
     path = Path(path)
     ext = _suffix(path, tuple(TET_FORMATS), "read")
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
-    try:
-        mesh = getattr(meshio, TET_FORMATS[ext]).read(str(path))
-    except (meshio.ReadError, ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ReadError(f"{path.name}: not a readable {ext[1:].upper()} mesh ({msg}); check the file") from None
+    mesh = _meshio_read(path, ext, TET_FORMATS[ext])
     tets = [b.data for b in mesh.cells if b.type == "tetra"]
     if not tets:
         kinds = ", ".join(sorted({b.type for b in mesh.cells})) or "none"

@@ -104,14 +104,12 @@ class _Level:
                             (~even, (~even * self.inv_diag).astype(dtype))]
 
     def _apply_range(self, x, y, lo, hi, sign=1.0, masked=True):
-        ys, t = y[lo:hi], self._tmp[lo:hi]
+        ys = y[lo:hi]
         np.multiply(self.diag[lo:hi], x[lo:hi], out=ys)
-        for wd, shifts in self.groups:
-            np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]], out=t)
-            for o in shifts[1:]:
-                t += x[lo + o:hi + o]
-                t += x[lo - o:hi - o]
-            t *= -sign * wd
+        t = self._neighbours_range(x, lo, hi)
+        if sign > 0:
+            ys -= t
+        else:
             ys += t
         if masked:
             ys *= self.free_f[lo:hi]
@@ -133,9 +131,8 @@ class _Level:
         """``sum_d w_d (x[i + d] + x[i - d])`` on ``lo:hi``, in the scratch array."""
         t = self._tmp[lo:hi]
         for g, (wd, shifts) in enumerate(self.groups):
-            part = t if g == 0 else np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]])
-            if g == 0:
-                np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]], out=t)
+            part = t if g == 0 else np.empty_like(t)
+            np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]], out=part)
             for o in shifts[1:]:
                 part += x[lo + o:hi + o]
                 part += x[lo - o:hi - o]

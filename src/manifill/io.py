@@ -109,7 +109,6 @@ def read_mesh(path):
         A missing file, an unknown extension, a file meshio cannot parse, or
         a file without triangles or quads.
     """
-
     path = Path(path)
     ext = _suffix(path, tuple(MESH_FORMATS), "read")
     if not path.is_file():

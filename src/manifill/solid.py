@@ -30,7 +30,7 @@ from .reconstruct import Reconstruction, _check_options, _pipeline, _Surface, re
 from .tets import boundary_faces, tetrahedralize
 from .validate import as_mask, as_samples, as_tets, check_option
 from .volume import VoxelFill, tet_fill
-from .voxels import as_connectivity, as_spacing, boundary_voxels, neighbour_offsets, voxel_centres, voxelize
+from .voxels import as_connectivity, as_origin, as_spacing, boundary_voxels, neighbour_offsets, voxel_centres, voxelize
 
 __all__ = ["FORMS", "VolumeReconstruction", "digital_surface", "reconstruct_volume", "reconstruct_volume_tets",
            "reconstruct_volume_mask", "surface_to_points"]
@@ -277,18 +277,6 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
                                         "seconds": seconds})
 
 
-def _as_origin(origin):
-    """``origin`` as three finite floats, or :class:`~manifill.errors.SampleError`."""
-    try:
-        o = np.asarray(origin, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        o = np.empty(0)
-    if o.size != 3 or not np.isfinite(o).all():
-        raise SampleError(f"origin {origin!r} is not three finite numbers; pass the centre of voxel (0, 0, 0), "
-                          f"e.g. origin=(0.0, 0.0, 0.0)")
-    return o
-
-
 def digital_surface(mask, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6):
     """The boundary voxels of a mask as a surface graph with positions and normals.
 
@@ -314,7 +302,7 @@ def digital_surface(mask, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), conne
 
     mask = as_mask(mask)
     h = as_spacing(spacing)
-    origin = _as_origin(origin)
+    origin = as_origin(origin)
     D = boundary_voxels(mask, connectivity)
     voxels = np.argwhere(D)
     P = voxel_centres(mask.shape, h, origin, where=D)
@@ -436,5 +424,5 @@ def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=
     seconds["fill"] = time.perf_counter() - t
     seconds["total"] = time.perf_counter() - t0
     return VolumeReconstruction(values, "voxels", surf, mask=mask, spacing=h,
-                                origin=_as_origin(origin), fixed=fixed, surface_voxels=voxels,
+                                origin=as_origin(origin), fixed=fixed, surface_voxels=voxels,
                                 report={"fill": fill.report, "shape": list(mask.shape), "seconds": seconds})

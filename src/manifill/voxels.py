@@ -36,6 +36,7 @@ __all__ = [
     "CONNECTIVITY",
     "as_connectivity",
     "as_spacing",
+    "as_origin",
     "neighbour_offsets",
     "stencil_weights",
     "boundary_voxels",
@@ -100,6 +101,18 @@ def as_spacing(spacing):
     if h.size != 3 or not np.isfinite(h).all() or (h <= 0).any():
         raise SampleError(f"spacing {spacing!r} must be three positive voxel sizes, e.g. spacing=(1.0, 1.0, 2.5)")
     return h
+
+
+def as_origin(origin):
+    """``origin`` as three finite floats, or :class:`~manifill.errors.SampleError`."""
+    try:
+        o = np.asarray(origin, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        o = np.empty(0)
+    if o.size != 3 or not np.isfinite(o).all():
+        raise SampleError(f"origin {origin!r} is not three finite numbers; pass the centre of voxel (0, 0, 0), "
+                          f"e.g. origin=(0.0, 0.0, 0.0)")
+    return o
 
 
 def stencil_weights(spacing=(1.0, 1.0, 1.0), connectivity=6):
@@ -256,7 +269,7 @@ def voxel_centres(shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), where=
     (k, 3) numpy array
     """
     h = as_spacing(spacing)
-    o = np.asarray(origin, dtype=np.float64).reshape(3)
+    o = as_origin(origin)
     if where is None:
         where = np.ones(shape, dtype=bool)
     return o + np.argwhere(where) * h

@@ -35,7 +35,7 @@ import scipy.sparse as sp
 
 from .gradual import gvf
 from .solvers import make_linear_solver
-from .validate import check_option
+from .validate import _scale_of, check_option, unit_scale
 
 __all__ = ["CURVE_VALUES", "curve_graph", "curve_values", "vertex_normals"]
 
@@ -62,7 +62,12 @@ def curve_graph(V, edges, n, *, distance="length"):
         Symmetric edge lengths; vertices off the curves have no edges.
     """
     i, j = edges[:, 0], edges[:, 1]
-    w = np.ones(len(edges)) if distance == "hops" else np.maximum(np.linalg.norm(V[i] - V[j], axis=1), 1e-300)
+    if distance == "hops":
+        w = np.ones(len(edges))
+    else:
+        D = V[i] - V[j]
+        sc = unit_scale(D)  # a power of two: the squares in the norm neither overflow nor underflow
+        w = np.maximum(np.linalg.norm(D if sc == 1.0 else D * (1.0 / sc), axis=1), 1e-300) * sc
     return sp.csr_array((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
 
 
@@ -82,13 +87,23 @@ def vertex_normals(V, F, where=None):
     Returns
     -------
     (n, 3) numpy array
-        Unit normals (zero where undefined).
+        Unit normals (zero where undefined), computed on positions of about unit
+        size (see :func:`manifill.validate.unit_scale`), so at any scale.
     """
+    return _vertex_normals(V, F, where, unit_scale(V))
+
+
+def _vertex_normals(V, F, where, sc):
+    """:func:`vertex_normals` of the positions ``V / sc`` (``sc`` a power of two)."""
     if where is not None:
         need = np.zeros(len(V), dtype=bool)
         need[where] = True
         F = F[need[F].any(axis=1)]
-    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    d1, d2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    if sc != 1.0:
+        d1 *= 1.0 / sc
+        d2 *= 1.0 / sc
+    N = np.cross(d1, d2)
     corners = F.ravel()
     out = np.column_stack([np.bincount(corners, weights=np.repeat(N[:, c], 3), minlength=len(V)) for c in range(3)])
     norm = np.linalg.norm(out, axis=1, keepdims=True)
@@ -174,8 +189,13 @@ def _hermite(V, F, curves, ends, idx, vals, normals=None):
     total, count = np.zeros((n, p)), np.zeros(n)
     if not curves:
         return total, count
+    sc = unit_scale(V)
+    if sc != 1.0:
+        # lengths, offsets and gradients in units of sc (a power of two): the values, slopes
+        # times lengths, are the same, and the quadratic fits are as well conditioned as at unit size
+        V = V * (1.0 / sc)
     if normals is None:
-        normals = vertex_normals(V, F, where=idx)
+        normals = _vertex_normals(V, F, idx, 1.0)
     grads, known = _gradients(V, normals, ends, idx, vals)
     lens = np.array([len(c) for c in curves])
     first = np.concatenate([[0], np.cumsum(lens)[:-1]])
@@ -310,7 +330,9 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
         return cv, out[:, 0] if squeeze else out
     G = curve_graph(V, edges, n)[cv][:, cv]
     W = G.copy()
-    W.data = 1.0 / W.data
+    # weights 1 / length in units of a power of two near the longest edge: the same
+    # solution, and no overflow of the weights of a tiny mesh
+    W.data = (_scale_of(float(W.data.max())) if W.nnz else 1.0) / W.data
     L = (sp.diags_array(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
     pos = np.searchsorted(cv, idx)
     free = np.ones(cv.size, dtype=bool)

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .topology import EdgeIndex
-from .validate import check_option
+from .validate import check_option, unit_scale
 
 __all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace"]
 
@@ -64,7 +64,9 @@ def mesh_graph(V, F, *, distance="hops", index=None):
         w = np.ones(len(E))
     else:
         w = np.zeros(len(E))
-        Vn = V - V.mean(axis=0)  # centred: lengths do not depend on a far origin
+        s = unit_scale(V)  # a power of two: squared lengths neither overflow nor underflow
+        Vs = V if s == 1.0 else V * (1.0 / s)
+        Vn = Vs - Vs.mean(axis=0)  # centred: lengths do not depend on a far origin
         for k in range(3):
             x = np.ascontiguousarray(Vn[:, k])
             w += (x[E[:, 0]] - x[E[:, 1]]) ** 2

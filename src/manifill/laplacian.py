@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .topology import EdgeIndex
-from .validate import as_mesh, bbox_diagonal, check_option
+from .validate import _bbox, as_mesh, check_option
 
 __all__ = ["laplacian", "cotangents", "WEIGHTS"]
 
@@ -41,8 +41,15 @@ WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 
 
 def _normalised(V):
-    """Positions centred and scaled to unit bounding-box diagonal (conditioning)."""
-    return (V - V.mean(axis=0)) / bbox_diagonal(V)
+    """Positions centred and scaled to unit bounding-box diagonal (conditioning).
+
+    Positions far outside unit size are first divided by a power of two (exact), so
+    that neither the mean nor the diagonal overflows or underflows.
+    """
+    s, diag = _bbox(V)  # diag in units of s
+    if s != 1.0:
+        V = V * (1.0 / s)
+    return (V - V.mean(axis=0)) / (diag if diag > 0 else 1.0)
 
 
 def cotangents(V, F):

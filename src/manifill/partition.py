@@ -34,7 +34,7 @@ from scipy.sparse import csgraph
 
 from .geodesic import trace, voronoi_pairs
 from .topology import pattern_components
-from .validate import check_option
+from .validate import check_option, unit_scale
 
 __all__ = ["PARTITIONS", "Partition", "partition"]
 
@@ -134,6 +134,9 @@ def _cycle_paths(V, G, idx):
     _, comp = pattern_components(G)
     curves, ends = [], []
     P = V[idx]
+    sc = unit_scale(P)  # a power of two: squared distances neither overflow nor underflow
+    if sc != 1.0:
+        P = P * (1.0 / sc)
     for c in np.unique(comp[idx]):
         members = np.flatnonzero(comp[idx] == c)
         if members.size < 2:

@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from .errors import SampleError
 from .tolerances import TOL
-from .validate import _first, as_samples, bbox_diagonal
+from .validate import _first, as_samples, bbox_diagonal, unit_scale
 
 __all__ = ["Samples", "snap_to_vertices", "field_names"]
 
@@ -188,22 +188,42 @@ def snap_to_vertices(V, points, *, max_distance=None):
     if bad.any():
         raise SampleError(f"sample positions have NaN or infinite coordinates in rows {_first(np.flatnonzero(bad))}")
     diag = bbox_diagonal(V)
-    tree = cKDTree(V)
+    # the KD-tree compares squared distances: query in units of a power of two near the
+    # mesh's size (exact), so that they neither overflow nor underflow, and scale back
+    sc = unit_scale(V)
+    inv = 1.0 / sc
+    tree = cKDTree(V if sc == 1.0 else V * inv)
     if max_distance is None:
         # a sample anywhere on a coarse triangle may be an edge length from its vertex
-        spacing = float(tree.query(V, k=2)[0][:, 1].max()) if len(V) > 1 else 0.0
+        spacing = float(tree.query(tree.data, k=2)[0][:, 1].max()) * sc if len(V) > 1 else 0.0
         limit = TOL.snap * diag + spacing
     else:
         limit = float(max_distance)
         if not limit >= 0:
             raise SampleError(f"max_distance={max_distance!r} must be a distance >= 0 (inf for no limit)")
-    dist, idx = tree.query(P)
+    with np.errstate(over="ignore"):
+        Ps = P if sc == 1.0 else P * inv
+    # positions so far out (in the mesh's units) that their squared distances would overflow:
+    # far from every vertex, measured apart below
+    out = ~(np.abs(Ps) < 2.0**500).all(axis=1)
+    if out.any():
+        Ps = Ps.copy()
+        Ps[out] = tree.data[0]
+    dist, idx = tree.query(Ps)
+    if sc != 1.0:
+        dist = dist * sc
+    if out.any():
+        d = P[out] - V[0]
+        m = np.abs(d).max(axis=1, keepdims=True)
+        dist[out] = m[:, 0] * np.linalg.norm(d / m, axis=1)
     far = np.flatnonzero(dist > limit)
     if far.size:
         i = int(far[np.argmax(dist[far])])
+        with np.errstate(over="ignore"):
+            ratio = dist[i] / diag
         raise SampleError(
             f"{far.size} samples lie far from the mesh (row {i}: {dist[i]:.3g} from the nearest vertex, "
-            f"{dist[i] / diag:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? "
+            f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? "
             f"Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-snap)"
         )
     return idx.astype(np.int64), dist

@@ -8,8 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .tolerances import TOL
-from .validate import as_mesh, bbox_diagonal, double_areas, duplicate_vertex_pairs
+from .validate import as_mesh, bbox_diagonal, duplicate_vertex_pairs, zero_area_faces
 
 __all__ = [
     "EdgeIndex",
@@ -415,7 +414,7 @@ def mesh_info(V, F):
         "diagonal": bbox_diagonal(V),
         "unreferenced_vertices": int(np.count_nonzero(~used)),
         "coinciding_vertex_pairs": int(len(duplicate_vertex_pairs(V))),
-        "zero_area_faces": int(np.count_nonzero(double_areas(V, F) <= 2 * TOL.degenerate_area * bbox_diagonal(V) ** 2)),
+        "zero_area_faces": int(np.count_nonzero(zero_area_faces(V, F))),
         "nonmanifold_edges": int(np.count_nonzero(count > 2)),
         "boundary_loops": len(loops),
         "components": comps,
@@ -466,8 +465,7 @@ def clean_mesh(V, F, *, tol=None):
     keep_face = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])
     F = F[keep_face]
     if len(F):
-        diag = bbox_diagonal(V)
-        F = F[double_areas(V, F) > 2 * TOL.degenerate_area * diag * diag]
+        F = F[~zero_area_faces(V, F)]
     used = np.zeros(n, dtype=bool)
     used[F.ravel()] = True
     newidx = np.full(n, -1, dtype=np.int64)

@@ -598,3 +598,30 @@ def test_doctests():
         pytest.skip("the tetrahedralize example needs tetgen")
     result = doctest.testmod(manifill.tets, optionflags=flags)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_surface_volume_is_the_volume_of_its_tets():
+    from manifill.tets import surface_volume
+
+    V, F = icosphere(2)
+    TV, TT = tetrahedralize(V, F, max_volume=0.01)
+    vol = tet_volumes(TV, TT).sum()  # the surface is kept, so the tets fill exactly the polyhedron
+    assert surface_volume(V, F) == pytest.approx(vol, rel=1e-12)
+    assert surface_volume(V, F[:, ::-1]) == pytest.approx(vol, rel=1e-12)  # either orientation
+    assert surface_volume(V * [2.0, 1.0, 0.5] + 1e6, F) == pytest.approx(vol, rel=1e-9)  # scale, far origin
+    cube = np.array([[x, y, z] for x in (0, 2) for y in (0, 3) for z in (0, 5)], dtype=float)
+    hull = Delaunay(cube).convex_hull
+    a, b, c = cube[hull[:, 0]], cube[hull[:, 1]], cube[hull[:, 2]]
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), a - cube.mean(axis=0)) < 0
+    hull[inward] = hull[inward][:, ::-1]  # the hull's triangles come in either orientation
+    assert surface_volume(cube, hull) == pytest.approx(30.0)
+
+
+def test_surface_volume_matches_vtk():
+    pv = pytest.importorskip("pyvista")
+    from manifill.tets import surface_volume
+
+    V, F = icosphere(3)
+    V = V * [1.0, 0.5, 2.0]
+    mesh = pv.PolyData(V, np.column_stack([np.full(len(F), 3), F]).ravel())
+    assert surface_volume(V, F) == pytest.approx(mesh.volume, rel=1e-9)

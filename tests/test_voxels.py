@@ -373,3 +373,20 @@ def test_voxelize_bad_resolution(bad):
 def test_doctests():
     result = doctest.testmod(manifill.voxels, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0
+
+
+@pytest.mark.parametrize("res, stretch", [(8, (1.0, 1.0, 1.0)), (17, (1.0, 0.4, 2.5)), (30, (0.3, 1.0, 0.7))])
+def test_voxel_grid_is_the_grid_voxelize_uses(res, stretch):
+    from manifill.voxels import voxel_grid
+
+    V, F = icosphere(2)
+    V = V * stretch + [3.0, -1.0, 0.5]
+    mask, h, origin = voxelize(V, F, res)
+    shape, h2, origin2 = voxel_grid(V, res)
+    assert shape == mask.shape and max(shape) == res + 2  # the longest side, padded by one layer each end
+    assert np.array_equal(h, np.full(3, h2)) and np.array_equal(origin, origin2)
+    # the grid is centred on the bounding box and covers it
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    far = origin + (np.array(shape) - 1) * h2
+    assert np.allclose((origin + far) / 2, (lo + hi) / 2)
+    assert (origin < lo).all() and (far > hi).all()

@@ -18,6 +18,7 @@ Three forms of solid, one result (:class:`VolumeReconstruction`):
     uniform averaging.
 """
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -25,15 +26,19 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import SampleError
+from .memory import check_fits
 from .progress import tick
+from .solvers import SOLVERS
 from .reconstruct import Reconstruction, _check_options, _pipeline, _Surface, reconstruct
-from .tets import boundary_faces, tetrahedralize
-from .validate import as_mask, as_samples, as_tets, check_option
-from .volume import VoxelFill, tet_fill
-from .voxels import as_connectivity, as_origin, as_spacing, boundary_voxels, neighbour_offsets, voxel_centres, voxelize
+from .tets import _check_max_volume, _tet_count, _tet_words, boundary_faces, surface_volume, tetrahedralize
+from .tets import tetrahedralize_memory
+from .validate import as_mask, as_mesh, as_samples, as_tets, check_option
+from .volume import _AUTO_DIRECT_MAX, FILL_SOLVERS, VoxelFill, fill_memory, tet_fill, tet_fill_memory
+from .voxels import (_grid_words, _voxelize_memory, as_connectivity, as_origin, as_spacing, boundary_voxels,
+                     neighbour_offsets, voxel_centres, voxel_grid, voxelize)
 
 __all__ = ["FORMS", "VolumeReconstruction", "digital_surface", "reconstruct_volume", "reconstruct_volume_tets",
-           "reconstruct_volume_mask", "surface_to_points"]
+           "reconstruct_volume_mask", "surface_to_points", "reconstruct_volume_memory"]
 
 FORMS = ("voxels", "tets")
 
@@ -132,6 +137,89 @@ def _surface_options(options):
     return options
 
 
+def _n_fields(vals):
+    """Columns of ``vals`` for the estimate (1 when it is not a table; validation comes later)."""
+    try:
+        shape = np.shape(vals)
+    except (TypeError, ValueError):
+        return 1
+    return int(shape[1]) if len(shape) == 2 else 1
+
+
+def _volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solver, n_fields):
+    """Peak bytes of the volume steps of :func:`reconstruct_volume`, what needs them and how to need less."""
+    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    p = max(int(n_fields), 1)
+    if form == "voxels":
+        connectivity = as_connectivity(connectivity)
+        shape, h, _ = voxel_grid(V, resolution)
+        voxels, _ = _voxelize_memory(V, F, shape, h)
+        N = math.prod(float(c) for c in shape)
+        unknowns = min(N, surface_volume(V, F) / h ** 3)
+        solver = "multigrid" if fill_solver == "auto" else fill_solver
+        # the mask and D are held through the fill; each further field adds its grid of values
+        fill = 2.0 * N + fill_memory(shape, unknowns, solver, connectivity) + 8.0 * N * (p - 1)
+        fix = "lower the resolution (CLI --resolution)"
+        if solver != "multigrid":
+            fix += " or use fill_solver='multigrid' (CLI --fill-solver multigrid)"
+        return max(voxels, fill), f"the voxel form at {_grid_words(int(resolution), shape)} ({solver} fill)", fix
+    _check_max_volume(max_volume)
+    tets = _tet_count(V, F, max_volume)
+    vertices = len(V) + tets / 6.0  # tetgen's meshes have about 6 tets per vertex
+    solver = "auto" if fill_solver in ("auto", "multigrid") else fill_solver
+    fill = tet_fill_memory(vertices, tets, len(V), solver) + 32.0 * (vertices + tets) + 8.0 * vertices * p
+    fix = "raise max_volume (CLI --max-volume)"
+    if solver == "direct" or (solver == "auto" and vertices - len(V) <= _AUTO_DIRECT_MAX):
+        fix += " or use fill_solver='amg' (CLI --fill-solver amg)"
+    what = f"{_tet_words(max_volume, tets)} and its fill"
+    return max(tetrahedralize_memory(V, F, max_volume=max_volume), fill), what, fix
+
+
+def reconstruct_volume_memory(V, F, *, form="voxels", resolution=128, connectivity=6, max_volume=None,
+                              fill_solver="auto", n_fields=1):
+    """Estimated peak memory of the volume steps of :func:`reconstruct_volume`, in bytes.
+
+    ``form='voxels'``: the larger of the voxelisation
+    (:func:`manifill.voxels.voxelize_memory`) and the fill
+    (:func:`manifill.volume.fill_memory`, with the unknowns from the volume
+    the surface encloses, :func:`manifill.tets.surface_volume`), on the grid
+    that ``resolution`` makes of the bounding box. ``form='tets'``: the larger
+    of TetGen's mesh (:func:`manifill.tets.tetrahedralize_memory`) and its
+    fill (:func:`manifill.volume.tet_fill_memory`). Steps 1-6 on the surface
+    are not counted.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+    F : (m, 3) array_like of int
+    form, resolution, connectivity, max_volume, fill_solver
+        As :func:`reconstruct_volume`.
+    n_fields : int, optional
+        Fields reconstructed (columns of ``vals``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    MeshError, OptionError
+        A malformed mesh or option.
+
+    Examples
+    --------
+    >>> from manifill.memory import human
+    >>> from manifill.shapes import icosphere
+    >>> human(reconstruct_volume_memory(*icosphere(3), resolution=96))  # 175 MB measured
+    '172 MB'
+    >>> human(reconstruct_volume_memory(*icosphere(3), resolution=3000))
+    '4.7 TB'
+    """
+    check_option("form", form, FORMS)
+    check_option("fill_solver", fill_solver, FILL_SOLVERS)
+    return _volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solver, n_fields)[0]
+
+
 def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connectivity=6, max_volume=None,
                        fill_solver="auto", fill_weights="cotan", allow_open=False, **options):
     """Reconstruct a field inside a solid from samples on its closed boundary surface (Steps 1-8).
@@ -173,7 +261,10 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     ------
     MeshError
         A malformed or open surface (see ``allow_open``).
-    SampleError, OptionError, SolveError, ResourceError
+    ResourceError
+        The volume steps are predicted not to fit in the memory available
+        (:func:`reconstruct_volume_memory`); checked before Steps 1-6.
+    SampleError, OptionError, SolveError
         As the steps they come from.
     ImportError
         Without libigl or tetgen (``pip install 'manifill[volume]'``).
@@ -188,7 +279,10 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     ((26, 26, 26), True)
     """
     check_option("form", form, FORMS)
+    check_option("fill_solver", fill_solver, FILL_SOLVERS)
     _surface_options(options)
+    # refuse a volume that will not fit before Steps 1-6 on the surface
+    check_fits(*_volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solver, _n_fields(vals)))
     t0 = time.perf_counter()
     surf = reconstruct(V, F, idx, vals, **options)
     seconds = {"surface": time.perf_counter() - t0}
@@ -251,6 +345,9 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
     ------
     SampleError
         A sample inside the solid (not on its boundary).
+    ResourceError
+        The fill is predicted not to fit in the memory available
+        (:func:`manifill.volume.tet_fill_memory`); checked before Steps 1-6.
     """
     _surface_options(options)
     t0 = time.perf_counter()
@@ -258,6 +355,13 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
     n = len(V)
     bf = boundary_faces(T, V=V)
     on_d = np.unique(bf)
+    check_option("fill_solver", fill_solver, SOLVERS)
+    free = n - on_d.size
+    factorised = fill_solver == "direct" or (fill_solver == "auto" and free <= _AUTO_DIRECT_MAX)
+    check_fits(tet_fill_memory(n, len(T), on_d.size, fill_solver),
+               f"the harmonic fill of {free:,} tet vertices ({fill_solver})",
+               ("use fill_solver='amg' (CLI --fill-solver amg) or " if factorised else "use ")
+               + "a coarser tetrahedral mesh")
     idx_arr, vals2, squeeze = as_samples(idx, vals, n, duplicates=options.get("duplicates", "error"))
     inside = np.setdiff1d(idx_arr, on_d)
     if inside.size:
@@ -316,7 +420,9 @@ def digital_surface(mask, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), conne
         E.append(np.column_stack([ids[both], there[both]]))
     E = np.sort(np.concatenate(E), axis=1)
     smooth = ndimage.gaussian_filter(mask.astype(np.float64), sigma=1.0 / h * h.min(), mode="constant")
-    grad = np.stack([g[D] for g in np.gradient(smooth, *h)], axis=1)
+    # an axis one voxel thick has no difference along it (np.gradient needs two)
+    grad = np.stack([np.gradient(smooth, h[a], axis=a)[D] if mask.shape[a] > 1 else np.zeros(len(voxels))
+                     for a in range(3)], axis=1)
     norm = np.linalg.norm(grad, axis=1, keepdims=True)
     normals = np.divide(-grad, norm, out=np.zeros_like(grad), where=norm > 0)
     return voxels, P, E, normals
@@ -363,6 +469,9 @@ def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=
     ------
     SampleError
         A sample off the boundary, out of the grid, or malformed.
+    ResourceError
+        The fill is predicted not to fit in the memory available; checked
+        before Steps 1-6.
 
     Examples
     --------
@@ -379,6 +488,15 @@ def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=
     mask = as_mask(mask)
     connectivity = as_connectivity(connectivity)
     h = as_spacing(spacing)
+    check_option("fill_solver", fill_solver, FILL_SOLVERS)
+    # before the digital surface (about 40 bytes per voxel) and Steps 1-6: the fill, with at most every
+    # voxel of the mask unknown
+    solver = "multigrid" if fill_solver == "auto" else fill_solver
+    voxels = int(np.count_nonzero(mask))
+    check_fits(max(fill_memory(mask.shape, voxels, solver, connectivity), 40.0 * mask.size) + 2.0 * mask.size,
+               f"the fill of a {' x '.join(str(c) for c in mask.shape)} mask of {voxels:,} voxels ({solver})",
+               "crop or downsample the mask" + ("" if solver == "multigrid" else
+                                                 " or use fill_solver='multigrid' (CLI --fill-solver multigrid)"))
     voxels, P, E, normals = digital_surface(mask, h, origin, connectivity)
     try:
         ijk = np.asarray(idx)
@@ -401,7 +519,7 @@ def reconstruct_volume_mask(mask, idx, vals, *, spacing=(1.0, 1.0, 1.0), origin=
     n = len(voxels)
     length = np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1)
     G_hops = _graph(n, E, np.ones(len(E)))
-    G = G_hops if distance == "hops" else _graph(n, E, length / length.mean())
+    G = G_hops if distance == "hops" else _graph(n, E, length / length.mean() if len(E) else length)
 
     def laplacian(weights):
         deg = np.asarray(G_hops.sum(axis=1)).ravel()

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .errors import SolveError
+from .memory import check_fits, lu_memory
 from .multigrid import Multigrid, canonical_csr, independent_blocks, workers
 from .tolerances import TOL
 from .validate import check_option
@@ -50,12 +51,25 @@ class DirectSolver:
     ----------
     A : (N, N) scipy sparse matrix
         Symmetric positive definite.
+
+    Raises
+    ------
+    ResourceError
+        The factors are predicted not to fit in the memory available
+        (:func:`manifill.memory.lu_memory`, as on a curve for at most 3.5
+        entries per row and on a surface otherwise: solids fill in more, and
+        their fills check before).
     """
 
     name = "direct"
 
     def __init__(self, A):
         self.shape = A.shape
+        n = A.shape[0]
+        if n:
+            check_fits(lu_memory(n, A.nnz, dim=1 if A.nnz <= 3.5 * n else 2),
+                       f"the sparse LU factorisation of {n:,} unknowns (solver='direct')",
+                       "use solver='amg' (CLI --solver amg, or --fill-solver amg for a volume fill)")
         self._lu = splu(sp.csc_matrix(A)) if A.shape[0] else None
 
     def solve(self, R, x0=None):

@@ -20,12 +20,13 @@ import numpy as np
 from .errors import SampleError, SolveError
 from .gridsolver import GridMultigrid
 from .harmonic import ON_EMPTY, HarmonicSolver
-from .memory import check_fits
+from .solvers import SOLVERS
+from .memory import check_fits, lu_memory
 from .tets import tet_laplacian
 from .validate import as_indices, as_mask, as_values, as_tets, check_option
 from .voxels import as_connectivity, as_spacing, voxel_components, voxel_laplacian
 
-__all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory"]
+__all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory", "tet_fill_memory"]
 
 FILL_SOLVERS = ("auto", "multigrid", "amg", "direct")
 
@@ -50,14 +51,55 @@ def fill_memory(shape, unknowns, solver="multigrid", connectivity=6):
     Returns
     -------
     float
+        ``multigrid``: 170 bytes per point of the padded grid; ``amg``: 125
+        bytes per stored entry of the Laplacian; ``direct``: the LU factors of
+        a solid (:func:`manifill.memory.lu_memory`, growing like
+        ``unknowns^1.5``) and the Laplacian.
     """
-    box = float(np.prod(np.asarray(shape) + 2))
+    box = float(np.prod(np.asarray(shape, dtype=np.float64) + 2))
+    unknowns = float(unknowns)
     if solver == "multigrid":
         return _MG_BYTES * box
     nnz = unknowns * (connectivity + 1.0)
     if solver == "amg":
         return _AMG_BYTES * nnz + 16 * box
-    return 16.0 * unknowns ** (4.0 / 3.0) + 40 * nnz + 16 * box  # LU fill of a 3-D grid grows like n^(4/3)
+    return lu_memory(unknowns, nnz, dim=3) + 40 * nnz + 16 * box
+
+
+#: Peak bytes per tet of :func:`tet_fill` up to its solver (the tet Laplacian's assembly: 680
+#: measured), stored entries of the Laplacian per vertex (15), and ``solver='auto'``'s limit.
+_TET_FILL_BYTES, _TET_NNZ_PER_VERTEX, _AUTO_DIRECT_MAX = 700, 15.5, 20_000
+
+
+def tet_fill_memory(n_vertices, n_tets, n_fixed=0, solver="auto"):
+    """Estimated peak memory of :func:`tet_fill`, in bytes.
+
+    Parameters
+    ----------
+    n_vertices, n_tets : int
+        Size of the tetrahedral mesh.
+    n_fixed : int, optional
+        Fixed vertices.
+    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
+        ``auto`` factorises up to 20,000 unknowns, like the solver it picks.
+
+    Returns
+    -------
+    float
+        About 700 bytes per tet (assembling the tet Laplacian), and with
+        ``direct`` the LU factors of a solid (:func:`manifill.memory.lu_memory`).
+
+    Examples
+    --------
+    >>> from manifill.memory import human
+    >>> human(tet_fill_memory(50_000, 300_000)), human(tet_fill_memory(50_000, 300_000, solver="direct"))
+    ('211 MB', '2.5 GB')
+    """
+    free = max(float(n_vertices) - float(n_fixed), 0.0)
+    out = _TET_FILL_BYTES * float(n_tets) + 16.0 * float(n_vertices)
+    if solver == "direct" or (solver == "auto" and free <= _AUTO_DIRECT_MAX):
+        out += lu_memory(free, _TET_NNZ_PER_VERTEX * free, dim=3)
+    return out
 
 
 class VoxelFill:
@@ -126,6 +168,13 @@ class VoxelFill:
                               f"fix only voxels of the solid")
         self.tol = 1e-10 if tol is None else float(tol)
         self.maxiter = 500 if maxiter is None else int(maxiter)
+        self.solver = "multigrid" if solver == "auto" else solver
+        # before anything grid-sized: at most the voxels of the mask that are not fixed are unknown
+        unknowns = int(np.count_nonzero(self.mask)) - int(np.count_nonzero(self.fixed))
+        check_fits(fill_memory(self.mask.shape, unknowns, self.solver, self.connectivity),
+                   f"the harmonic fill of {unknowns:,} voxels ({self.solver})",
+                   "lower the resolution (CLI --resolution), crop the grid to the solid, or use solver='multigrid' "
+                   "(CLI --fill-solver multigrid)")
         # parts of the solid that no fixed voxel reaches have no harmonic solution
         count, labels = voxel_components(self.mask, self.connectivity)
         reached = np.zeros(count + 1, dtype=bool)
@@ -140,13 +189,9 @@ class VoxelFill:
                 f"{v}), so their values are undetermined; fix a voxel there, or pass on_empty='nan' to leave them NaN")
         self.empty = empty
         self.free = self.mask & ~self.fixed & ~empty
-        self.solver = "multigrid" if solver == "auto" else solver
         self._auto = solver == "auto"
         self._tol_arg, self._maxiter_arg = tol, maxiter
         unknowns = int(self.free.sum())
-        what = f"the harmonic fill of {unknowns:,} voxels ({self.solver})"
-        check_fits(fill_memory(self.mask.shape, unknowns, self.solver, self.connectivity), what,
-                   "lower the resolution, crop the grid to the solid, or use solver='multigrid'")
         self.report = {"voxels": int(self.mask.sum()), "fixed": int(self.fixed.sum()), "unknowns": unknowns,
                        "empty": int(empty.sum()), "connectivity": self.connectivity, "solver": self.solver,
                        "spacing": self.spacing.tolist(), "iterations": [], "seconds": {}}
@@ -170,7 +215,7 @@ class VoxelFill:
             unknowns = int(self.free.sum())
             check_fits(fill_memory(self.mask.shape, unknowns, solver, self.connectivity),
                        f"the harmonic fill of {unknowns:,} voxels ({solver})",
-                       "lower the resolution or crop the grid to the solid")
+                       "lower the resolution (CLI --resolution) or crop the grid to the solid")
             L = voxel_laplacian(solid, self.spacing, self.connectivity)
             b = np.flatnonzero(self.fixed[solid])
             self._hs = HarmonicSolver.from_laplacian(L, b, solver=solver, tol=self._tol_arg,
@@ -298,6 +343,12 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
     -------
     (n,) or (n, p) float64 numpy array
 
+    Raises
+    ------
+    ResourceError
+        The fill is predicted not to fit in the memory available
+        (:func:`tet_fill_memory`); checked before the Laplacian is built.
+
     Examples
     --------
     >>> from manifill.shapes import icosphere
@@ -310,6 +361,14 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
     """
     V, T = as_tets(V, T, allow_degenerate=weights == "uniform")
     b = as_indices(b, len(V))
+    check_option("solver", solver, SOLVERS)
+    n_fixed = len(np.unique(b))
+    free = len(V) - n_fixed
+    coarser = "a coarser tetrahedral mesh (CLI: raise --max-volume)"
+    factorised = solver == "direct" or (solver == "auto" and free <= _AUTO_DIRECT_MAX)
+    check_fits(tet_fill_memory(len(V), len(T), n_fixed, solver), f"the harmonic fill of {free:,} tet vertices "
+               f"({solver})", f"use solver='amg' (CLI --fill-solver amg) or {coarser}" if factorised
+               else f"use {coarser}")
     L = tet_laplacian(V, T, weights=weights)
     return HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
                                          symmetric_pattern=True).solve(bc)

@@ -25,12 +25,14 @@ mask, so fixing D encloses the inside for every connectivity.
 """
 
 import itertools
+import math
 import numbers
 
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import MeshError, OptionError, SampleError
+from .errors import MeshError, OptionError, ResourceError, SampleError
+from .memory import check_fits
 
 __all__ = [
     "CONNECTIVITY",
@@ -44,6 +46,8 @@ __all__ = [
     "voxel_components",
     "voxel_centres",
     "voxelize",
+    "voxel_grid",
+    "voxelize_memory",
 ]
 
 CONNECTIVITY = (6, 18, 26)
@@ -298,6 +302,160 @@ def _surface_band(V, F, shape, h, origin):
     return ndimage.binary_dilation(band, np.ones((3, 3, 3), dtype=bool))
 
 
+class _ResolutionError(OptionError, SampleError):
+    """A resolution that is not an integer of at least 2: an option error (and a SampleError, as it was)."""
+
+
+def _as_resolution(resolution):
+    """``resolution`` as an int >= 2, or :class:`~manifill.errors.OptionError` naming the fix."""
+    r = None
+    if isinstance(resolution, numbers.Integral) and not isinstance(resolution, bool):
+        r = int(resolution)
+    elif isinstance(resolution, numbers.Real) and not isinstance(resolution, bool):
+        if math.isfinite(resolution) and float(resolution).is_integer():
+            r = int(resolution)
+    if r is None:
+        raise _ResolutionError(f"resolution {resolution!r} is not an integer; pass the number of voxels along "
+                               f"the longest side, e.g. resolution=128 (CLI --resolution)")
+    if r < 2:
+        raise _ResolutionError(f"resolution {r} is too small; pass at least 2 voxels along the longest side "
+                               f"(CLI --resolution)")
+    return r
+
+
+def voxel_grid(V, resolution=128, *, padding=1):
+    """The grid :func:`voxelize` uses: cubes, ``resolution`` of them along the longest side of the box of ``V``.
+
+    Parameters
+    ----------
+    V : (n, 3) float64 numpy array
+        Vertex positions (finite).
+    resolution : int, optional
+    padding : int, optional
+        Empty voxel layers around the bounding box.
+
+    Returns
+    -------
+    shape : tuple of 3 int
+        Voxels per axis (Python ints: a huge grid does not overflow).
+    h : float
+        Voxel size.
+    origin : (3,) numpy array
+        Centre of voxel ``(0, 0, 0)``.
+
+    Raises
+    ------
+    OptionError
+        ``resolution`` not an integer >= 2.
+    MeshError
+        All vertices coincide.
+    ResourceError
+        A resolution above 10^12 (more voxels than any memory holds).
+
+    Examples
+    --------
+    >>> shape, h, origin = voxel_grid(np.array([[0.0, 0, 0], [2, 1, 1]]), 4)
+    >>> shape, h, origin.tolist()
+    ((6, 4, 4), 0.5, [-0.25, -0.25, -0.25])
+    """
+    resolution = _as_resolution(resolution)
+    if resolution > 10**12:  # beyond float arithmetic on the grid, and 10^36 voxels fit in no memory
+        raise ResourceError(f"resolution {resolution} makes more than 10^36 voxels, more than any memory holds; "
+                            f"lower the resolution (CLI --resolution)")
+    V = np.asarray(V, dtype=np.float64)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    h = float((hi - lo).max()) / resolution
+    if not h > 0:
+        raise MeshError("the surface has no extent (all vertices coincide); pass a surface that encloses a solid")
+    count3 = [max(int(math.ceil(float(x) / h - 1e-9)), 1) + 2 * int(padding) for x in hi - lo]
+    origin = (lo + hi) / 2 - (np.array(count3, dtype=np.float64) - 1) * h / 2
+    return tuple(count3), h, origin
+
+
+#: Bytes per voxel of the grid-wide arrays of :func:`voxelize` at its peak (the band, the region
+#: labels, the index of every voxel outside the band, the mask), per band voxel (query points and
+#: winding numbers), per face (validation, edges) and per point spread over the triangles in one
+#: chunk, and a fixed part; measured with tracemalloc (17, 96, 200-300, 40-70, 1 MB), rounded up.
+_VOX_GRID, _VOX_BAND, _VOX_FACE, _VOX_POINT, _VOX_FIXED = 18, 110, 300, 70, 1.5e6
+#: Band voxels per (surface area / h^2): the band of spread points dilated by one voxel (4.2 measured).
+_BAND_THICKNESS = 4.5
+#: Points spread over the triangles per chunk of :func:`_surface_band`.
+_BAND_CHUNK = 2_000_000
+
+
+def _band_points(V, F, h):
+    """The most points :func:`_surface_band` holds at once for voxel size ``h``."""
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    longest = np.sqrt(np.maximum.reduce([((B - A) ** 2).sum(1), ((C - B) ** 2).sum(1), ((A - C) ** 2).sum(1)]))
+    steps = np.maximum(np.ceil(np.minimum(longest / (0.5 * h), 1e12)), 1)
+    s, count = np.unique(steps, return_counts=True)
+    per_face = (s + 1) * (s + 2) / 2
+    per_chunk = np.maximum(1, _BAND_CHUNK // per_face)
+    return float((np.minimum(count, per_chunk) * per_face).max()) if len(s) else 0.0
+
+
+def _surface_area(V, F):
+    """Total area of the triangles."""
+    A = V[F[:, 0]]
+    return float(np.linalg.norm(np.cross(V[F[:, 1]] - A, V[F[:, 2]] - A), axis=1).sum() / 2)
+
+
+def _voxelize_memory(V, F, shape, h):
+    """:func:`voxelize_memory` on validated arrays and a chosen grid: (bytes, band voxels)."""
+    N = float(np.prod(np.array(shape, dtype=np.float64)))
+    band = min(N, _BAND_THICKNESS * _surface_area(V, F) / h ** 2 + 27.0)
+    spread = _VOX_FACE * len(F) + _VOX_POINT * _band_points(V, F, h) + 3.0 * N
+    return _VOX_FIXED + max(spread, _VOX_GRID * N, 6.0 * N + _VOX_BAND * band), band
+
+
+def voxelize_memory(V, F, resolution=128, *, padding=1):
+    """Estimated peak memory of :func:`voxelize`, in bytes.
+
+    The grid-wide arrays (about 18 bytes per voxel of the box, from the
+    bounding box and ``resolution``), the band of voxels around the surface
+    where winding numbers are evaluated (about 110 bytes per band voxel; the
+    band is about 4.5 voxels thick), and the points spread over the triangles.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles.
+    resolution : int, optional
+        Voxels along the longest side.
+    padding : int, optional
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    MeshError, OptionError
+        As :func:`voxelize`.
+
+    Examples
+    --------
+    >>> from manifill.memory import human
+    >>> from manifill.shapes import icosphere
+    >>> small, big = voxelize_memory(*icosphere(2), 64), voxelize_memory(*icosphere(2), 3000)
+    >>> human(small), human(big)  # 3002^3 voxels at 18 bytes
+    ('9 MB', '487.0 GB')
+    """
+    from .validate import as_mesh
+
+    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    shape, h, _ = voxel_grid(V, resolution, padding=padding)
+    return _voxelize_memory(V, F, shape, h)[0]
+
+
+def _grid_words(resolution, shape):
+    """``'resolution 3000 (grid 3002 x 3002 x 3002, 27,054,036,008 voxels)'``."""
+    total = math.prod(shape)
+    return f"resolution {resolution} (grid {' x '.join(str(c) for c in shape)}, {total:,} voxels)"
+
+
 def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     """Voxelise the solid bounded by a closed triangle mesh.
 
@@ -333,6 +491,11 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     MeshError
         A malformed or open surface, or one that encloses no voxel at this
         resolution.
+    OptionError
+        ``resolution`` not an integer of at least 2.
+    ResourceError
+        The voxelisation is predicted not to fit in the memory available
+        (:func:`voxelize_memory`); checked before anything grid-sized is made.
     ImportError
         Without libigl (``pip install 'manifill[volume]'``).
     """
@@ -340,29 +503,20 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     from .validate import as_mesh
 
     V, F = as_mesh(V, F, allow_degenerate=True)
-    try:
-        resolution = int(resolution)
-    except (TypeError, ValueError):
-        raise SampleError(f"resolution {resolution!r} is not an integer; pass voxels along the longest side") from None
-    if resolution < 2:
-        raise SampleError(f"resolution {resolution} is too small; pass at least 2 voxels along the longest side")
+    resolution = _as_resolution(resolution)
     _, count = edges(F)
     if not allow_open and (count == 1).any():
         raise MeshError(
             f"the surface is open ({int((count == 1).sum())} boundary edges), so it bounds no solid; close its holes "
             f"(e.g. with a hole-filling tool) or pass allow_open=True (CLI: --allow-open) to let winding numbers decide"
         )
+    shape, h, origin = voxel_grid(V, resolution, padding=padding)
+    check_fits(_voxelize_memory(V, F, shape, h)[0], f"voxelising at {_grid_words(resolution, shape)}",
+               "lower the resolution (CLI --resolution)")
     try:
         import igl
     except ImportError:
         raise ImportError("voxelize needs libigl for winding numbers: pip install 'manifill[volume]'") from None
-    lo, hi = V.min(axis=0), V.max(axis=0)
-    h = float((hi - lo).max()) / resolution
-    if h <= 0:
-        raise MeshError("the surface has no extent (all vertices coincide); pass a surface that encloses a solid")
-    count3 = np.maximum(np.ceil((hi - lo) / h - 1e-9).astype(int), 1) + 2 * padding
-    origin = (lo + hi) / 2 - (count3 - 1) * h / 2
-    shape = tuple(int(c) for c in count3)
     # the winding number is constant away from the surface: evaluate it in a band of voxels
     # around the surface, and once per connected region of the voxels outside the band
     band = _surface_band(V, F, shape, h, origin)

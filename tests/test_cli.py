@@ -98,8 +98,8 @@ def test_harmonic_writes_the_library_result(tmp_path, capsys, sphere):
     np.testing.assert_allclose(m.point_data["temp"], expected, rtol=1e-10, atol=1e-12)
     fixed = np.zeros(len(sphere["V"]), dtype=bool)
     fixed[sphere["idx"]] = True
-    np.testing.assert_array_equal(m.point_data["fixed"].astype(bool), fixed)
-    assert set(m.point_data) == {"temp", "fixed"}
+    np.testing.assert_array_equal(m.point_data["sample_mask"].astype(bool), fixed)
+    assert set(m.point_data) == {"temp", "sample_mask"}
     assert files(tmp_path) == ["out.ply", "samples.csv", "samples2.csv", "sphere.ply"]
 
 
@@ -146,21 +146,25 @@ def test_two_value_columns_give_two_fields(tmp_path, capsys, sphere):
     assert code == 0 and "2 field(s): temp, pressure" in out
     expected = harmonic(sphere["V"], sphere["F"], sphere["idx"], sphere["vals"])
     pd = meshio.read(tmp_path / "out.ply").point_data
-    assert set(pd) == {"temp", "pressure", "fixed"}
+    assert set(pd) == {"temp", "pressure", "sample_mask"}
     np.testing.assert_allclose(np.column_stack([pd["temp"], pd["pressure"]]), expected, rtol=1e-10, atol=1e-12)
     code, _, _ = run(capsys, "harmonic", sphere["path"], sphere["samples2"], "-o", tmp_path / "out.csv")
     assert code == 0
     assert (tmp_path / "out.csv").read_text().splitlines()[0] == "vertex,temp,pressure"
 
 
-def test_a_field_named_fixed_is_not_lost(tmp_path, capsys, sphere):
+def test_a_field_named_fixed_is_kept_and_a_mask_name_refused_before_the_work(tmp_path, capsys, sphere):
     path = tmp_path / "fixed.csv"
     path.write_text(sphere["samples"].read_text().replace("vertex,temp", "vertex,fixed"))
     code, _, _ = run(capsys, "harmonic", sphere["path"], path, "-o", tmp_path / "out.vtu")
     pd = meshio.read(tmp_path / "out.vtu").point_data
     expected = harmonic(sphere["V"], sphere["F"], sphere["idx"], sphere["vals"][:, 0])
     assert code == 0
-    assert any(np.allclose(a, expected) for a in pd.values() if a.shape == expected.shape)
+    np.testing.assert_allclose(pd["fixed"], expected, rtol=1e-10, atol=1e-12)
+    path.write_text(sphere["samples"].read_text().replace("vertex,temp", "vertex,sample_mask"))
+    code, out, err = run(capsys, "harmonic", sphere["path"], path, "-o", tmp_path / "out2.vtu")
+    assert code == 2 and "'sample_mask' is the name of manifill's mask" in err and err.count("\n") == 1
+    assert not (tmp_path / "out2.vtu").exists()
 
 
 def test_position_samples_are_snapped(tmp_path, capsys, sphere):
@@ -216,7 +220,7 @@ def bad_case(tmp_path, case):
     elif case == "missing output folder":
         output, word = tmp_path / "nope" / "out.ply", "does not exist"
     elif case.startswith("output ."):
-        output, word = tmp_path / f"out{case[7:]}", "must be"
+        output, word = tmp_path / f"out{case[7:]}", "-o writes"
     elif case == "component without samples":
         mesh, _ = two_spheres(tmp_path)
         word = "component of 42 vertices"
@@ -322,7 +326,7 @@ def test_clean_welds_a_triangle_soup(tmp_path, capsys):
     a, b = meshio.read(tmp_path / "soup_out.ply"), meshio.read(tmp_path / "grid_out.ply")
     assert len(a.cells_dict["triangle"]) == len(F)
     same_field_by_position(a.points, a.point_data["v"], b.points, b.point_data["v"])
-    same_field_by_position(a.points, a.point_data["fixed"], b.points, b.point_data["fixed"])
+    same_field_by_position(a.points, a.point_data["sample_mask"], b.points, b.point_data["sample_mask"])
 
 
 def vertex_samples_on_a_soup(tmp_path, soup_idx):
@@ -392,8 +396,8 @@ def test_demo(tmp_path, capsys):
     assert (outdir / "report.txt").read_text().strip() == out.strip()
     m = meshio.read(outdir / "sphere.vtu")
     assert len(m.points) == 40962
-    assert {"truth", "harmonic_curves", "harmonic_points", "fixed_curves", "fixed_points",
-            "reconstruct_points", "curve", "component"} <= set(m.point_data)
+    assert {"truth", "harmonic_curves", "harmonic_points", "circle_mask", "sample_mask",
+            "reconstruct_points", "curve_mask", "patch_label"} <= set(m.point_data)
     scale = np.ptp(m.point_data["truth"])
     # the command the demo suggests runs, and gives the demo's own pipeline result
     code, out, err = run(capsys, "reconstruct", outdir / "sphere.ply", outdir / "samples.csv",
@@ -486,8 +490,8 @@ def test_reconstruct_writes_field_curves_and_components(tmp_path, capsys, sphere
     r = reconstruct(s["V"], s["F"], s["idx"], s["vals"][:, 0], curve_values="linear")
     pd = meshio.read(out_path).point_data
     np.testing.assert_allclose(pd["temp"], r.values, rtol=1e-12, atol=1e-12)
-    np.testing.assert_array_equal(pd["curve"].astype(bool), r.on_curve)
-    np.testing.assert_array_equal(pd["component"], r.components)
+    np.testing.assert_array_equal(pd["curve_mask"].astype(bool), r.on_curve)
+    np.testing.assert_array_equal(pd["patch_label"], r.components)
     assert "delaunay partition" in out and "steps 5-6" in out
 
 

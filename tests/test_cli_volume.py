@@ -78,8 +78,8 @@ def test_surface_to_voxels(tmp_path, capsys, sphere):
     assert code == 0 and err == ""
     assert "wrote" in out and "voxels: grid (18, 18, 18)" in out
     fields, h, o = read_vti(out_path)
-    assert set(fields) == {"temp", "fixed"}
-    t, fixed = fields["temp"], fields["fixed"].astype(bool)
+    assert set(fields) == {"temp", "boundary_mask"}
+    t, fixed = fields["temp"], fields["boundary_mask"].astype(bool)
     assert t.shape == (18, 18, 18)
     inside = np.isfinite(t)
     assert 0 < inside.sum() < t.size and np.isnan(t[~inside]).all()
@@ -113,11 +113,11 @@ def test_surface_to_tets(tmp_path, capsys, sphere):
     import meshio
 
     data = meshio.read(out_path).point_data
-    assert set(data) == {"temp", "boundary"}
+    assert set(data) == {"temp", "boundary_mask", "sample_mask"}
     t = np.asarray(data["temp"]).ravel()
     assert t.shape == (len(TV),) and np.isfinite(t).all()
     np.testing.assert_allclose(t[sphere["idx"]], field(V[sphere["idx"]]), rtol=0, atol=1e-12)
-    np.testing.assert_array_equal(np.asarray(data["boundary"]).ravel().astype(bool), np.arange(len(TV)) < len(V))
+    np.testing.assert_array_equal(np.asarray(data["boundary_mask"]).ravel().astype(bool), np.arange(len(TV)) < len(V))
 
 
 # ---------------------------------------------------------------------------
@@ -138,7 +138,7 @@ def test_tets_to_tets(tmp_path, capsys, tet_ball):
     t = np.asarray(mesh.point_data["temp"]).ravel()
     np.testing.assert_allclose(t[tet_ball["idx"]], field(tet_ball["TV"][tet_ball["idx"]]), rtol=0, atol=1e-12)
     assert np.isfinite(t).all()
-    boundary = np.asarray(mesh.point_data["boundary"]).ravel().astype(bool)
+    boundary = np.asarray(mesh.point_data["boundary_mask"]).ravel().astype(bool)
     np.testing.assert_array_equal(np.flatnonzero(boundary), tet_ball["b"])
 
 
@@ -182,7 +182,7 @@ def test_npy_mask_with_position_samples(tmp_path, capsys):
     assert t.shape == mask.shape
     assert np.isnan(t[~mask]).all() and np.isfinite(t[mask]).all()
     np.testing.assert_allclose(t[tuple(on.T)], vals, rtol=0, atol=1e-12)
-    np.testing.assert_array_equal(fields["fixed"].astype(bool), D)
+    np.testing.assert_array_equal(fields["boundary_mask"].astype(bool), D)
 
 
 def test_vti_mask_takes_its_spacing(tmp_path, capsys):
@@ -295,7 +295,7 @@ def test_several_fields_to_npy(tmp_path, capsys, sphere):
                          "--resolution", "8")
     assert code == 0
     fields, _, _ = read_vti(tmp_path / "out.vti")
-    assert set(fields) == {"a", "b", "fixed"}
+    assert set(fields) == {"a", "b", "boundary_mask"}
 
 
 def test_not_enough_memory(tmp_path, capsys, sphere, monkeypatch):

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import grid, icosphere
-from manifill import MeshError, OptionError, reconstruct
+from manifill import MeshError, OptionError, WriteError, reconstruct
 from manifill.cli import main
 from manifill.subdivide import loop_matrix, subdivide
 from manifill.viewer import embedded_arrays, write_html
@@ -260,3 +260,169 @@ def test_viewer_hover_reads_the_value_under_the_pointer(tmp_path):
     value, vertex = dom.split('<div id="pick-result">')[1].split("</div>")[0].split()
     assert abs(float(value) - np.cos(0.4) * np.cos(0.6)) < 0.01
     assert abs(V[int(vertex), 2] - float(value)) < 0.02  # the nearest corner of the triangle hit
+
+
+# ---------------------------------------------------------------------------
+# several fields: the viewer's field list and the render's field choice
+# ---------------------------------------------------------------------------
+
+EVIL = "</script><b>\"x'&"  # a field name that would end the script and inject markup if written unescaped
+
+
+def test_viewer_embeds_every_field_in_order_and_opens_on_the_chosen_one(tmp_path):
+    V, F = icosphere(2)
+    rng = np.random.default_rng(3)
+    a, b = rng.random(len(V)), rng.random(len(V))
+    c = np.where(V[:, 0] > 0, np.nan, V[:, 1])
+    path = tmp_path / "v.html"
+    write_html(path, V, F, {"b": b, "a": a, "c": c})  # a dict keeps its order (not sorted)
+    got = embedded_arrays(path)
+    assert list(got["fields"]) == ["b", "a", "c"] and got["field"] == "b"
+    for key, want in zip("bac", (b, a, c)):
+        np.testing.assert_allclose(got["fields"][key], want, rtol=1e-6)  # NaN stays NaN (grey) where it was
+    np.testing.assert_allclose(got["values"], b, rtol=1e-6)
+    write_html(path, V, F, np.column_stack([a, b]), names=["first", "second"], field="second")
+    got = embedded_arrays(path)
+    assert list(got["fields"]) == ["first", "second"] and got["field"] == "second"
+    np.testing.assert_allclose(got["values"], b, rtol=1e-6)
+    write_html(path, V, F, np.column_stack([a, b, c]), name="t")  # unnamed columns: name_0, name_1, ...
+    assert list(embedded_arrays(path)["fields"]) == ["t_0", "t_1", "t_2"]
+    # each field has its own colour range, from its finite values
+    import json
+
+    text = path.read_text()
+    data = json.loads(text[text.index("const DATA = ") + 13:text.index(";\n", text.index("const DATA = "))])
+    ranges = [f["range"] for f in data["fields"]]
+    for r, x in zip(ranges, (a, b, c)):
+        np.testing.assert_allclose(r, [np.nanmin(x), np.nanmax(x)])
+
+
+def test_viewer_field_names_cannot_break_the_page(tmp_path):
+    V, F = icosphere(1)
+    names = [EVIL, "a\nb \u2028 <!-- \u00e9", "__DATA__", "__TITLE__"]
+    path = tmp_path / "v.html"
+    write_html(path, V, F, np.column_stack([V[:, 0], V[:, 1], V[:, 2], -V[:, 2]]), names=names,
+               title="__DATA__ </script> __TITLE__")
+    text = path.read_text(encoding="utf-8")
+    # one script element, ended once; no markup from the names; the placeholders filled in once each
+    assert text.count("<script>") == 1 and text.count("</script>") == 1 and text.index("</script>") > text.index("DATA")
+    assert "<b>\"x" not in text and "<!--" not in text and "\u2028" not in text
+    assert "<title>__DATA__ &lt;/script&gt; __TITLE__</title>" in text and text.count("const DATA = ") == 1
+    got = embedded_arrays(path)
+    assert list(got["fields"]) == names  # the names come back exactly
+    np.testing.assert_allclose(got["fields"]["__TITLE__"], -V[:, 2], rtol=1e-6)
+
+
+def test_viewer_unknown_field_lists_the_names(tmp_path):
+    V, F = icosphere(1)
+    path = tmp_path / "v.html"
+    with pytest.raises(OptionError) as err:
+        write_html(path, V, F, {"temp": V[:, 0], EVIL: V[:, 1]}, field="pressure")
+    msg = str(err.value)
+    assert "'pressure'" in msg and "'temp'" in msg and repr(EVIL) in msg and "\n" not in msg
+    assert not path.exists()
+
+
+@pytest.mark.parametrize("values, names, error", [
+    ("short", None, WriteError),  # one value too few
+    ("wide", ["a"], OptionError),  # two columns, one name
+    ("wide", ["a", "a"], OptionError),  # the same name twice
+    ("wide", "ab", OptionError),  # a string is not a list of names
+    ("dict-short", None, WriteError),
+    ("text", None, WriteError),
+    ("empty-dict", None, WriteError),
+])
+def test_viewer_and_render_reject_fields_that_do_not_fit(tmp_path, values, names, error):
+    from manifill.render import render
+
+    V, F = icosphere(1)
+    n = len(V)
+    values = {"short": np.zeros(n - 1), "wide": np.zeros((n, 2)), "dict-short": {"a": np.zeros(n), "b": [1.0]},
+              "text": np.array(["x"] * n), "empty-dict": {}}[values]
+    with pytest.raises(error) as err:
+        write_html(tmp_path / "v.html", V, F, values, names=names)
+    assert "\n" not in str(err.value)
+    with pytest.raises(error):
+        render(V, F, values, tmp_path / "r.png", names=names)
+    assert not (tmp_path / "v.html").exists() and not (tmp_path / "r.png").exists()
+
+
+def test_render_draws_the_chosen_field_as_if_alone(tmp_path):
+    # choosing field "b" of several gives the very picture of "b" rendered alone (same name on the colour bar)
+    from manifill.render import render
+
+    V, F = icosphere(3)
+    a, b = V[:, 0], 3 * V[:, 2] ** 2 - 1
+    kw = dict(size=(240, 200), view=(0, -1, 0.3), viewup=(0, 0, 1))
+    render(V, F, b, tmp_path / "alone.png", name="b", **kw)
+    render(V, F, {"a": a, "b": b}, tmp_path / "dict.png", field="b", **kw)
+    render(V, F, np.column_stack([a, b]), tmp_path / "cols.png", names=["a", "b"], field="b", **kw)
+    render(V, F, {"a": a, "b": b}, tmp_path / "first.png", **kw)  # default: the first field
+    alone = png(tmp_path / "alone.png")
+    assert np.array_equal(png(tmp_path / "dict.png"), alone) and np.array_equal(png(tmp_path / "cols.png"), alone)
+    assert np.abs(png(tmp_path / "first.png") - alone).mean() > 5  # the other field looks different
+    with pytest.raises(OptionError, match="'a', 'b'"):
+        render(V, F, {"a": a, "b": b}, tmp_path / "x.png", field="c", **kw)
+    assert not (tmp_path / "x.png").exists()
+
+
+needs_chromium = pytest.mark.skipif(chromium() is None,
+                                    reason="needs Debian's chromium (.ci/run installs it: apt-get install chromium)")
+
+
+def run_chromium(tmp_path, url, *args):
+    cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
+           "--enable-unsafe-swiftshader", "--no-first-run", "--disable-background-networking",
+           "--disable-component-update", "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}",
+           "--window-size=640,480", *args, url]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False).stdout
+
+
+def between(text, start, end="</"):
+    return text.split(start, 1)[1].split(end, 1)[0]
+
+
+@needs_chromium
+@pytest.mark.parametrize("field, scale, shift", [("2z+1", 2.0, 1.0), (EVIL, -1.0, 0.0)])
+def test_viewer_switches_field_and_picks_it_in_headless_chromium(tmp_path, field, scale, shift):
+    # fields z, 2z+1 and -z on the unit sphere; the page switches to one (window.manifillSelectField, from the
+    # URL) and its own picking reads that field at the canvas centre, where z = cos(0.4) cos(0.6) (see above)
+    from urllib.parse import quote
+
+    V, F = icosphere(5)
+    z = V[:, 2]
+    page = tmp_path / "v.html"
+    write_html(page, V, F, {"z": z, "2z+1": 2 * z + 1, EVIL: -z})
+    dom = run_chromium(tmp_path, page.as_uri() + "#field=" + quote(field, safe="") + "&pick=0.5,0.5", "--dump-dom")
+    value, vertex = between(dom, '<div id="pick-result">').split()
+    assert abs(float(value) - (scale * np.cos(0.4) * np.cos(0.6) + shift)) < 0.01 * abs(scale)
+    assert abs(scale * z[int(vertex)] + shift - float(value)) < 0.02 * abs(scale)
+    import html
+
+    shown = html.escape(field, quote=False)
+    assert between(dom, '<div id="pick-field">') == shown
+    # the hover read-out names the field; the colour bar shows its name and its own range
+    assert between(dom, '<div id="hover"').split(">", 1)[1].startswith(f"{shown} = ")
+    assert between(dom, '<b id="name">') == shown
+    lo = float(between(dom, 'id="lo" style="text-align:left">'))
+    hi = float(between(dom, 'id="hi" style="text-align:right">'))
+    np.testing.assert_allclose([lo, hi], sorted([scale * z.min() + shift, scale * z.max() + shift]), atol=1e-3)
+    # the list holds every name as text; the evil name injected no element
+    options = [between(o, ">") for o in between(dom, '<select id="field">', "</select>").split("<option")[1:]]
+    assert options == ["z", "2z+1", html.escape(EVIL, quote=False)]
+    assert '<b>"x' not in dom
+
+
+@needs_chromium
+def test_viewer_recolours_with_the_field_range_in_headless_chromium(tmp_path):
+    # a page switched to its second field draws the sphere exactly as a page holding only that field: the
+    # colours follow the new field (x, not z) and its own range (3x - 2 spans [-5, 1], z spans [-1, 1])
+    V, F = icosphere(4)
+    both, alone = tmp_path / "both.html", tmp_path / "alone.html"
+    write_html(both, V, F, {"z": V[:, 2], "w": 3 * V[:, 0] - 2}, samples=[0, 7])
+    write_html(alone, V, F, {"w": 3 * V[:, 0] - 2}, samples=[0, 7])
+    run_chromium(tmp_path, both.as_uri() + "#field=w", f"--screenshot={tmp_path / 'both.png'}")
+    run_chromium(tmp_path, alone.as_uri(), f"--screenshot={tmp_path / 'alone.png'}")
+    a, b = png(tmp_path / "both.png")[100:], png(tmp_path / "alone.png")[100:]  # below the panel (its list differs)
+    assert a.shape == (380, 640, 3) and a[40:240, 220:420].std() > 15  # the sphere is drawn and coloured
+    assert np.abs(a - b).max() <= 2

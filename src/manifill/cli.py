@@ -13,14 +13,16 @@ import contextlib
 import io
 import json
 import os
+import signal
 import sys
+import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
 from . import __version__
-from .errors import ManifillError, SampleError
+from .cli_common import check_outputs, err, levels, load, pictures, print_time, step_bar, write_surface
+from .errors import ManifillError
 from .harmonic import ON_EMPTY, HarmonicSolver
 from .curves import CURVE_VALUES
 from .geodesic import DISTANCES
@@ -31,65 +33,6 @@ from .cli_volume import cmd_volume
 from .solvers import SOLVERS
 
 __all__ = ["main"]
-
-
-def _err(msg):
-    print(f"manifill: error: {msg}", file=sys.stderr)
-    return 2
-
-
-def _load(args):
-    """Read mesh and samples, optionally cleaning the mesh first."""
-    from .io import read_mesh, read_samples
-    from .samples import Samples
-    from .topology import clean_mesh
-
-    V, F = read_mesh(args.mesh)
-    # vertex indices refer to the file's numbering, so samples are read against it
-    S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
-    if args.clean:
-        n0 = len(V)
-        V, F, vmap = clean_mesh(V, F)
-        print(f"cleaned mesh: {n0:,} -> {len(V):,} vertices, {len(F):,} faces")
-        if S.snap_distance is None:
-            new = vmap[S.idx]
-            if (new < 0).any():
-                raise SampleError(
-                    f"{int((new < 0).sum())} samples sit on vertices that --clean removed (e.g. vertex "
-                    f"{int(S.idx[new < 0][0])}, used by no face); sample vertices of the surface only")
-            S = Samples.from_indices(new, S.vals, len(V), names=S.names, duplicates=args.duplicates)
-        else:
-            S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
-    return V, F, S
-
-
-def _check_output(path):
-    """The output path, checked before any work is done."""
-    from .io import MESH_FORMATS, VALUE_FORMATS
-    from .errors import WriteError
-
-    out = Path(path)
-    ext = out.suffix.lower()
-    if ext not in VALUE_FORMATS and not (ext in MESH_FORMATS and MESH_FORMATS[ext][1]):
-        raise WriteError(f"{out.name}: the output must be .ply, .vtu or .vtk (mesh with fields) or .csv/.npy (values)")
-    if not out.parent.is_dir():
-        raise WriteError(f"folder {out.parent} does not exist; create it first or choose another output path")
-    return out
-
-
-def _write_with_masks(out, V, F, fields, extra, idx):
-    """Write the fields plus label fields (a sample mask, curve mask, components) under free names."""
-    from .io import write_mesh
-
-    fixed = np.zeros(len(V), dtype=bool)
-    fixed[idx] = True
-    for base, arr in [("fixed", fixed), *extra.items()]:
-        name = next(m for m in (base, f"{base}_mask", f"manifill_{base}") if m not in fields)
-        fields[name] = arr
-    written = write_mesh(out, V, F, fields)
-    renamed = {a: b for a, b in written.items() if a != b}
-    if renamed:
-        print("note: fields renamed for the format: " + ", ".join(f"{a!r} -> {b!r}" for a, b in renamed.items()))
 
 
 def cmd_info(args):
@@ -123,13 +66,45 @@ def cmd_info(args):
     return 0
 
 
+def _surface_outputs(args, pictures=True):
+    """-o (and --render/--html) of a surface command, checked before any work."""
+    from .io import MESH_FORMATS
+    from .sampleio import VALUE_FORMATS
+
+    meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
+    outs = [("-o", args.output, meshes + VALUE_FORMATS)]
+    if pictures:
+        outs += [("--render", getattr(args, "render", None), (".png",)),
+                 ("--html", getattr(args, "html", None), (".html",))]
+    return check_outputs(outs, [args.mesh, args.samples])[0]
+
+
+def _check_names(args, S, out):
+    """The field names against the output's format and manifill's masks, and --field, before the work."""
+    from .cli_common import chosen_field
+    from .io import check_field_names
+
+    check_field_names(S.names, out)
+    chosen_field(args, S.names)
+
+
+def _masks(n, idx, **extra):
+    """manifill's mask arrays of a surface result, under their fixed names."""
+    from .io import SAMPLE_MASK
+
+    sample = np.zeros(n, dtype=bool)
+    sample[idx] = True
+    return {SAMPLE_MASK: sample, **extra}
+
+
 def cmd_harmonic(args):
     """``manifill harmonic MESH SAMPLES -o OUT``."""
-    from .io import VALUE_FORMATS, write_values
+    from .sampleio import VALUE_FORMATS, write_values
 
-    out = _check_output(args.output)
+    out = _surface_outputs(args)
     ext = out.suffix.lower()
-    V, F, S = _load(args)
+    V, F, S = load(args)
+    _check_names(args, S, out)
     t0 = time.perf_counter()
     solver = HarmonicSolver(V, F, S.idx, weights=args.weights, solver=args.solver, on_empty=args.on_empty)
     X = solver.solve(S.vals)
@@ -137,8 +112,7 @@ def cmd_harmonic(args):
     if ext in VALUE_FORMATS:
         write_values(out, X, S.names)
     else:
-        fields = {name: X[:, j] for j, name in enumerate(S.names)}
-        _write_with_masks(out, V, F, fields, {}, S.idx)
+        write_surface(out, V, F, {name: X[:, j] for j, name in enumerate(S.names)}, _masks(len(V), S.idx))
     rep = solver.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})"
           + (f", {S.merged} merged" if S.merged else ""))
@@ -153,6 +127,7 @@ def cmd_harmonic(args):
     if rep["empty_components"]:
         print(f"note: {len(rep['empty_components'])} component(s) without samples left NaN")
     _print_ranges(X, S, out)
+    pictures(args, V, F, X, S.names, samples=S.idx, title=f"harmonic: {S.names[0]}")
     return 0
 
 
@@ -165,29 +140,17 @@ def _print_ranges(X, S, out):
     print(f"wrote {out}")
 
 
-def _levels(text):
-    """``--levels``: a count, or comma-separated explicit levels."""
-    if text is None:
-        return None
-    try:
-        if "," in text:
-            return np.array([float(t) for t in text.split(",") if t.strip()])
-        return int(text)
-    except ValueError:
-        raise SampleError(f"--levels {text!r} is neither a count nor a comma-separated list of numbers") from None
-
-
 def cmd_check(args):
     """``manifill check MESH SAMPLES``: exit 0 if the condition holds, 1 if not."""
     from .geodesic import mesh_graph
     from .gradual import check_gradual
     from .validate import as_mesh
 
-    V, F, S = _load(args)
+    V, F, S = load(args)
     V, F = as_mesh(V, F, allow_degenerate=True)
     G = mesh_graph(V, F, distance=args.distance)
     t0 = time.perf_counter()
-    checks = [check_gradual(G, S.idx, S.vals[:, j], levels=_levels(args.levels), distance=args.distance)
+    checks = [check_gradual(G, S.idx, S.vals[:, j], levels=levels(args.levels), distance=args.distance)
               for j in range(S.vals.shape[1])]
     seconds = time.perf_counter() - t0
     unit = "hop" if args.distance == "hops" else "mean edge length"
@@ -213,16 +176,21 @@ def cmd_check(args):
 
 def cmd_reconstruct(args):
     """``manifill reconstruct MESH SAMPLES -o OUT``."""
-    from .io import write_values
+    from .io import CURVE_MASK, PATCH_LABEL
     from .reconstruct import reconstruct
+    from .sampleio import VALUE_FORMATS, write_values
 
-    out = _check_output(args.output)
-    _check_pictures(args)
-    V, F, S = _load(args)
-    bar = _bar(args, 5)
+    out = _surface_outputs(args)
+    V, F, S = load(args)
+    _check_names(args, S, out)
+    if args.subdivide:
+        from .subdivide import check_subdivide
+
+        check_subdivide(len(V), len(F), args.subdivide, len(S.names))
+    bar = step_bar(args, 5)
     try:
         r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
-                        distance=args.distance, levels=_levels(args.levels), curve_values=args.curve_values,
+                        distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
                         solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates, progress=bar)
     finally:
         bar.close()
@@ -231,20 +199,17 @@ def cmd_reconstruct(args):
         from .subdivide import subdivide
 
         V2, F2, X2 = subdivide(V, F, X, levels=args.subdivide)
-        if out.suffix.lower() in (".csv", ".npy"):
+        if out.suffix.lower() in VALUE_FORMATS:
             write_values(out, X2, S.names)
         else:
-            from .io import write_mesh
-
-            write_mesh(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
+            write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)}, {})
         print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
-              f"the curve and patch masks are not written)")
-    elif out.suffix.lower() in (".csv", ".npy"):
+              f"the masks are not written)")
+    elif out.suffix.lower() in VALUE_FORMATS:
         write_values(out, X, S.names)
     else:
         fields = {name: X[:, j] for j, name in enumerate(S.names)}
-        extra = {"curve": r.on_curve, "component": r.components}
-        _write_with_masks(out, V, F, fields, extra, S.idx)
+        write_surface(out, V, F, fields, _masks(len(V), S.idx, **{CURVE_MASK: r.on_curve, PATCH_LABEL: r.components}))
     rep = r.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
     if S.snap_distance is not None:
@@ -262,54 +227,10 @@ def cmd_reconstruct(args):
         its = h.get("iterations")
         print(f"steps 5-6: harmonic fill, weights={h['weights']}, solver={h['solver']}"
               + (f", {', '.join(map(str, its))} iterations" if its else ""))
-    _print_time(args, rep["seconds"])
+    print_time(args, rep["seconds"])
     _print_ranges(X, S, out)
-    _pictures(args, V, F, X[:, 0], S, curves=r.curves, title=f"{args.method}: {S.names[0]}")
+    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method}")
     return 0
-
-
-def _bar(args, total):
-    from .progress import StepBar
-
-    return StepBar(total, enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
-
-
-def _print_time(args, seconds):
-    """The total time, and with --verbose every step's."""
-    if getattr(args, "verbose", False):
-        print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in seconds.items()))
-    else:
-        print(f"time: {seconds.get('total', sum(seconds.values())):.2f} s (--verbose: per step)")
-
-
-def _check_pictures(args):
-    """The picture outputs' names, checked before any work is done."""
-    from .errors import WriteError
-
-    for opt, ext in (("render", ".png"), ("html", ".html")):
-        path = getattr(args, opt, None)
-        if path is None:
-            continue
-        p = Path(path)
-        if p.suffix.lower() != ext:
-            raise WriteError(f"{p.name}: --{opt} writes a {ext} file; change the name")
-        if not p.parent.is_dir():
-            raise WriteError(f"folder {p.parent} does not exist; create it first or choose another path for --{opt}")
-
-
-def _pictures(args, V, F, values, S, curves=None, title=None):
-    """--render PNG and --html viewer of a surface result."""
-    if getattr(args, "render", None):
-        from .render import render
-
-        render(V, F, values, args.render, samples=S.idx, curves=curves, title=title, name=S.names[0])
-        print(f"rendered {args.render}")
-    if getattr(args, "html", None):
-        from .viewer import write_html
-
-        write_html(args.html, V, F, values, samples=S.idx, curves=curves, title=title or "manifill",
-                   name=S.names[0])
-        print(f"wrote the viewer {args.html}")
 
 
 def cmd_demo(args):
@@ -321,10 +242,15 @@ def cmd_demo(args):
     return 0
 
 
+_MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
+
+
 def _sample_args(s):
     """MESH SAMPLES and the options of reading them, shared by the subcommands."""
-    s.add_argument("mesh", help="mesh file (.off .obj .ply .stl .vtk .vtu)")
-    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy")
+    s.add_argument("mesh", help=f"mesh file ({_MESH_HELP})")
+    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy; "
+                                   "per-vertex data with NaN where unmeasured (.func.gii, .shape.gii, .mgh, "
+                                   "FreeSurfer lh.thickness ...); FreeSurfer .label")
     s.add_argument("--duplicates", choices=("error", "mean"), default="error",
                    help="two samples on one vertex with different values: error (default) or average")
     s.add_argument("--max-snap", type=float, default=None,
@@ -337,7 +263,7 @@ def _sample_args(s):
 def _fill_args(s):
     """-o OUT and the options of the harmonic fill, shared by harmonic and reconstruct."""
     s.add_argument("-o", "--output", required=True,
-                   help="output: .ply/.vtu/.vtk (mesh with named fields) or .csv/.npy (values)")
+                   help="output: .vtu/.vtp/.vtk/.ply (mesh with named fields) or .csv/.npy (values)")
     s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
     s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
@@ -348,7 +274,10 @@ def _picture_args(s):
     s.add_argument("--render", default=None, metavar="OUT.png",
                    help="also render the result (field, samples, curves) as a PNG, off-screen (needs pyvista)")
     s.add_argument("--html", default=None, metavar="OUT.html",
-                   help="also write an interactive viewer: one self-contained HTML file that opens offline")
+                   help="also write an interactive viewer: one self-contained HTML file that opens offline, "
+                        "with a menu of every field")
+    s.add_argument("--field", default=None, metavar="NAME",
+                   help="the field --render draws and --html shows first (default: the first value column)")
 
 
 def _output_args(s):
@@ -378,7 +307,7 @@ def build_parser():
                        description="Print what is in a mesh: counts, connected components with sizes, "
                                    "boundary loops, non-manifold edges, bounding box, Euler characteristic "
                                    "and genus per closed component.")
-    s.add_argument("mesh", help="mesh file (.off .obj .ply .stl .vtk .vtu)")
+    s.add_argument("mesh", help=f"mesh file ({_MESH_HELP})")
     s.add_argument("--json", action="store_true", help="print as JSON")
     s.set_defaults(func=cmd_info)
 
@@ -387,6 +316,7 @@ def build_parser():
                                    "with the weighted average of its neighbours (discrete harmonic).")
     _sample_args(s)
     _fill_args(s)
+    _picture_args(s)
     _output_args(s)
     s.set_defaults(func=cmd_harmonic)
 
@@ -454,6 +384,7 @@ def build_parser():
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
     s.add_argument("--render", default=None, metavar="OUT.png",
                    help="also render three slices through the solid (voxels) or its boundary (tets) as a PNG")
+    s.add_argument("--field", default=None, metavar="NAME", help="the field --render draws (default: the first)")
     _output_args(s)
     s.set_defaults(func=cmd_volume)
 
@@ -484,23 +415,58 @@ def main(argv=None):
         args = parser.parse_args(argv)
     except SystemExit as exc:
         return int(exc.code or 0)
+    with _terminate_as_interrupt():
+        try:
+            if getattr(args, "quiet", False):
+                with contextlib.redirect_stdout(io.StringIO()):
+                    return args.func(args)
+            return args.func(args)
+        except BrokenPipeError:
+            # the reader went away (e.g. `manifill info --json m.ply | head`): stop quietly
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 1
+        except _Terminated:
+            print("manifill: terminated; no output was left half-written", file=sys.stderr)
+            return 143
+        except KeyboardInterrupt:
+            print("manifill: interrupted; no output was left half-written", file=sys.stderr)
+            return 130
+        except ManifillError as exc:
+            return err(str(exc))
+        except ImportError as exc:
+            return err(str(exc).splitlines()[0])
+        except MemoryError:
+            return err("out of memory during the computation; try a smaller mesh, a lower resolution or solver='amg'")
+        except OSError as exc:
+            return err(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+        except Exception as exc:  # noqa: BLE001 - a bug of manifill's: one line, the traceback on request
+            if os.environ.get("MANIFILL_DEBUG"):
+                raise
+            text = " ".join(str(exc).split())[:200]
+            print(f"manifill: internal error: {type(exc).__name__}: {text} (a bug; MANIFILL_DEBUG=1 shows the "
+                  f"traceback)", file=sys.stderr)
+            return 1
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is so that temporary files are removed on the way out."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """While the command runs, SIGTERM unwinds like Ctrl-C (only in the main thread, where signals arrive)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def raise_terminated(signum, frame):
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
-        if getattr(args, "quiet", False):
-            with contextlib.redirect_stdout(io.StringIO()):
-                return args.func(args)
-        return args.func(args)
-    except BrokenPipeError:
-        # the reader went away (e.g. `manifill info --json m.ply | head`): stop quietly
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
-    except ManifillError as exc:
-        return _err(str(exc))
-    except ImportError as exc:
-        return _err(str(exc).splitlines()[0])
-    except MemoryError:
-        return _err("out of memory; try a smaller mesh or solver='amg'")
-    except OSError as exc:
-        return _err(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -23,36 +23,40 @@ def _triple(text, what):
 
 def cmd_volume(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
-    from .cli import _bar, _check_pictures, _levels
+    from .cli_common import check_outputs, levels, step_bar
     from .errors import ReadError, WriteError
     from .volio import GRID_FORMATS, TET_FORMATS, has_tets
 
-    out = Path(args.output)
-    ext, src = out.suffix.lower(), Path(args.mesh).suffix.lower()
+    src = Path(args.mesh).suffix.lower()
     if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
         raise ReadError(f"{args.mesh}: no such file")  # before its kind (and the output's) is guessed from it
     kind = "mask" if src in GRID_FORMATS else ("tets" if src in TET_FORMATS and has_tets(args.mesh) else "surface")
     form = "voxels" if kind == "mask" else ("tets" if kind == "tets" else args.form)
     allowed = GRID_FORMATS if form == "voxels" else tuple(TET_FORMATS)
-    if ext not in allowed:
-        raise WriteError(f"{out.name}: a {form} result is written as {' or '.join(allowed)}; change the output name")
-    if not out.parent.is_dir():
-        raise WriteError(f"folder {out.parent} does not exist; create it first or choose another output path")
-    _check_pictures(args)
-    bar = _bar(args, 7)
+    if Path(args.output).suffix.lower() not in allowed:
+        raise WriteError(f"{Path(args.output).name}: a {form} result is written as {' or '.join(allowed)}; change "
+                         f"the output name")
+    out, _ = check_outputs([("-o", args.output, allowed), ("--render", args.render, (".png",))],
+                           [args.mesh, args.samples])
+    bar = step_bar(args, 7)
     surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
-                        levels=_levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
+                        levels=levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
                         progress=bar)
     try:
         r, S, form = _volume_run(args, kind, form, surface_opts)
     finally:
         bar.close()
-    return _volume_write(args, out, ext, r, S, form)
+    return _volume_write(args, out, out.suffix.lower(), r, S, form)
 
 
-def _one_field_for_npy(args, S):
+def _check_samples(args, S):
+    """What the samples' names and count allow for the output, before the work."""
+    from .cli_common import chosen_field
     from .errors import WriteError
+    from .io import check_field_names
 
+    check_field_names(S.names, args.output)
+    chosen_field(args, S.names)
     if Path(args.output).suffix.lower() == ".npy" and len(S.names) > 1:
         raise WriteError(f"{Path(args.output).name}: .npy holds one field but the samples have {len(S.names)} "
                          f"({', '.join(S.names)}); write .vti")
@@ -60,7 +64,8 @@ def _one_field_for_npy(args, S):
 
 def _volume_run(args, kind, form, surface_opts):
     """Read the solid and the samples, run Steps 1-8; print what was read."""
-    from .io import read_mesh, read_samples
+    from .io import read_mesh_file
+    from .sampleio import read_samples
     from .solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
     from .tets import boundary_faces
     from .volio import read_mask, read_tets
@@ -71,7 +76,7 @@ def _volume_run(args, kind, form, surface_opts):
         o = _triple(args.origin, "origin") if args.origin else (o if o is not None else [0.0, 0.0, 0.0])
         voxels, P, _, _ = digital_surface(mask, h, o, args.connectivity)
         S = read_samples(args.samples, P, duplicates=args.duplicates, max_distance=args.max_snap)
-        _one_field_for_npy(args, S)
+        _check_samples(args, S)
         r = reconstruct_volume_mask(mask, voxels[S.idx], S.vals, spacing=h, origin=o, connectivity=args.connectivity,
                                     fill_solver=args.fill_solver, **surface_opts)
         print(f"voxel mask {mask.shape}, {int(mask.sum()):,} voxels; digital surface {len(voxels):,} voxels")
@@ -79,7 +84,7 @@ def _volume_run(args, kind, form, surface_opts):
         V, T = read_tets(args.mesh)
         on_d = np.unique(boundary_faces(T, V=V))
         S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
-        _one_field_for_npy(args, S)
+        _check_samples(args, S)
         if S.snap_distance is not None:  # positions: snap to the boundary, not to inner vertices
             S = read_samples(args.samples, V[on_d], duplicates=args.duplicates, max_distance=args.max_snap)
             S.idx = on_d[S.idx]
@@ -88,9 +93,11 @@ def _volume_run(args, kind, form, surface_opts):
                                     weights=args.weights, solver=args.solver, **surface_opts)
         print(f"tetrahedral mesh: {len(V):,} vertices, {len(T):,} tets, {on_d.size:,} on the boundary")
     else:
-        V, F = read_mesh(args.mesh)
-        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
-        _one_field_for_npy(args, S)
+        mesh = read_mesh_file(args.mesh)
+        V, F = mesh.V, mesh.F
+        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
+                         vertex_numbering=mesh.vertex_numbering)
+        _check_samples(args, S)
         r = reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,
                                connectivity=args.connectivity, max_volume=args.max_volume,
                                fill_solver=args.fill_solver, fill_weights=args.fill_weights,
@@ -101,7 +108,8 @@ def _volume_run(args, kind, form, surface_opts):
 
 def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
-    from .cli import _print_time
+    from .cli_common import chosen_field, print_time
+    from .io import BOUNDARY_MASK, SAMPLE_MASK
     from .tets import boundary_faces
     from .volio import write_tets, write_vti
 
@@ -109,7 +117,7 @@ def _volume_write(args, out, ext, r, S, form):
     fields = {name: X[..., j] for j, name in enumerate(S.names)}
     if form == "voxels":
         if ext == ".vti":
-            fields[next(m for m in ("fixed", "fixed_mask", "manifill_fixed") if m not in fields)] = r.fixed
+            fields[BOUNDARY_MASK] = r.fixed
         write_vti(out, fields, r.spacing, r.origin)
         fill = r.report["fill"]
         print(f"voxels: grid {X.shape[:3]}, spacing {np.round(r.spacing, 6).tolist()}, {fill['voxels']:,} inside, "
@@ -118,20 +126,24 @@ def _volume_write(args, out, ext, r, S, form):
     else:
         boundary = np.zeros(len(r.TV), dtype=bool)
         boundary[np.unique(boundary_faces(r.TT))] = True
-        fields[next(m for m in ("boundary", "boundary_mask", "manifill_boundary") if m not in fields)] = boundary
+        fields[BOUNDARY_MASK] = boundary
+        sample = np.zeros(len(r.TV), dtype=bool)
+        sample[S.idx] = True  # tet vertices (a surface keeps its vertices first in the tetrahedralisation)
+        fields[SAMPLE_MASK] = sample
         write_tets(out, r.TV, r.TT, fields)
         print(f"tets: {len(r.TV):,} vertices, {len(r.TT):,} tetrahedra")
-    _print_time(args, r.report["seconds"])
+    print_time(args, r.report["seconds"])
+    j = S.names.index(chosen_field(args, S.names))
     if getattr(args, "render", None):
         if form == "voxels":
             from .render import render_slices
 
-            render_slices(X[..., 0], r.spacing, r.origin, args.render, name=S.names[0])
+            render_slices(X[..., j], r.spacing, r.origin, args.render, name=S.names[j])
         else:
             from .render import render
 
-            render(r.TV, boundary_faces(r.TT), X[:, 0], args.render, name=S.names[0], title="boundary of the solid")
-        print(f"rendered {args.render}")
+            render(r.TV, boundary_faces(r.TT), X[:, j], args.render, name=S.names[j], title="boundary of the solid")
+        print(f"rendered {args.render} ({S.names[j]})")
     finite = X[np.isfinite(X[..., 0])]
     lo, hi = S.vals.min(axis=0), S.vals.max(axis=0)
     for j, name in enumerate(S.names):
@@ -139,5 +151,3 @@ def _volume_write(args, out, ext, r, S, form):
               f"{finite[:, j].max():.4g}]")
     print(f"wrote {out}")
     return 0
-
-

@@ -31,7 +31,7 @@ import numpy as np
 from .harmonic import HarmonicSolver
 from .reconstruct import reconstruct
 from .errors import WriteError
-from .io import write_mesh
+from .io import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, write_mesh
 from .shapes import great_circle_vertices, icosphere
 
 __all__ = ["run_demo", "demo_field"]
@@ -102,8 +102,8 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
         "solver": rec.report["harmonic"]["solver"],
     }
     fields["reconstruct_points"] = rec.values
-    fields["curve"] = rec.on_curve
-    fields["component"] = rec.components
+    fields[CURVE_MASK] = rec.on_curve
+    fields[PATCH_LABEL] = rec.components
     for name, b in (("curves", great_circle_vertices(V, F)), ("points", scattered)):
         t0 = time.perf_counter()
         solver = HarmonicSolver(V, F, b)
@@ -119,7 +119,7 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
             "solver": solver.report["solver"],
         }
         fields[f"harmonic_{name}"] = x
-        fields[f"fixed_{name}"] = ~free
+        fields[SAMPLE_MASK if name == "points" else "circle_mask"] = ~free
     files = [out / "sphere.vtu", out / "sphere.ply", out / "samples.csv", out / "report.txt"]
     write_mesh(files[0], V, F, fields)
     write_mesh(files[1], V, F, fields)

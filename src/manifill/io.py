@@ -1,97 +1,206 @@
-"""Meshes, samples and fields on disk.
+"""Meshes and fields on disk: one registry of formats, what each holds and which readers see its fields.
 
-Meshes go through meshio; one registry maps each file extension to its meshio
-format and says whether it can hold named point data (the reconstructed fields).
-Every write is atomic: the data goes to a temporary file in the target folder,
-which is renamed over the target only when complete, so a failure never leaves a
-truncated output behind.
+Every mesh format is one entry of :data:`MESH_FORMATS`: how manifill reads and writes
+it, whether it holds named per-vertex fields, which common readers see those
+fields, and whether reading it keeps the file's vertex numbering (STL does not:
+its reader merges the corners of its triangles). :func:`read_mesh_file` and
+:func:`write_mesh` dispatch on the extension; FreeSurfer surfaces (``lh.pial``,
+``rh.white``: no telling extension) are recognised by their first bytes.
 
-Sample files
-------------
-CSV
-    A header, then one row per sample. Either ``vertex,value[,value2...]``
-    (0-based vertex indices) or ``x,y,z,value[,...]`` (positions, snapped to the
-    nearest vertex). The value columns keep their header names.
-NPZ
-    Arrays ``idx`` (or ``points``) and ``vals`` (``(k,)`` or ``(k, p)``), and
-    optionally ``names``.
-NPY
-    A structured array whose field names follow the CSV header rules.
+Fields keep their names where the format allows any text (VTU, VTP, VTI); PLY
+and legacy VTK store plain words, so there other characters become ``_``
+(:func:`stored_names` says what was renamed). A name no format can store (empty,
+or with line breaks or other control characters) is refused. Mask and label
+arrays have one naming scheme everywhere: :data:`SAMPLE_MASK`,
+:data:`CURVE_MASK`, :data:`PATCH_LABEL`, :data:`BOUNDARY_MASK`.
+
+Every write is atomic (:func:`manifill.files.atomic_path`); every read of a
+damaged file ends in one :class:`~manifill.errors.ReadError` naming the file.
+Samples and per-vertex values are read and written by :mod:`manifill.sampleio`.
 """
 
-import csv
-import os
 import re
-from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ReadError, SampleError, WriteError
-from .samples import Samples, field_names
+from .errors import ManifillError, ReadError, WriteError
+from .files import atomic_path, check_count, check_input_file, reading, suffix
+from .sampleio import SAMPLE_FORMATS, VALUE_FORMATS, read_samples, write_values
 
-__all__ = ["MESH_FORMATS", "read_mesh", "write_mesh", "read_samples", "write_values"]
+__all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK",
+           "RESERVED_NAMES", "read_mesh", "read_mesh_file", "write_mesh", "stored_names", "check_field_names",
+           "format_note", "write_cells", "atomic_path", "read_samples", "write_values", "SAMPLE_FORMATS", "VALUE_FORMATS"]
 
-#: extension -> (meshio format name, can hold point data)
+#: 1 where a vertex (or voxel) holds a sample
+SAMPLE_MASK = "sample_mask"
+#: 1 on the partition curves (their values were fixed before the harmonic fill)
+CURVE_MASK = "curve_mask"
+#: the patch of every vertex, -1 on the curves
+PATCH_LABEL = "patch_label"
+#: 1 on the boundary of a solid (tet vertices on its surface; voxels of D, filled from the surface)
+BOUNDARY_MASK = "boundary_mask"
+RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK)
+
+
+@dataclass(frozen=True)
+class MeshFormat:
+    """One mesh format: how it is read and written, and what it keeps.
+
+    Attributes
+    ----------
+    name : str
+        Its usual name.
+    reader : str
+        Which reader parses it.
+    write : bool
+        manifill writes it.
+    fields : bool
+        It holds named per-vertex fields.
+    seen_by : tuple of str
+        Common readers that show those fields (``meshio``, ``pyvista``: VTK and
+        ParaView read what pyvista reads).
+    vertex_numbering : bool
+        Reading keeps the file's vertex numbers (samples may refer to them).
+    extra : str or None
+        The extra it needs (``neuro``: nibabel).
+    """
+
+    name: str
+    reader: str
+    write: bool
+    fields: bool
+    seen_by: tuple = ()
+    vertex_numbering: bool = True
+    extra: str = None
+
+
 MESH_FORMATS = {
-    ".off": ("off", False),
-    ".obj": ("obj", False),
-    ".ply": ("ply", True),
-    ".stl": ("stl", False),
-    ".vtk": ("vtk", True),
-    ".vtu": ("vtu", True),
+    ".vtu": MeshFormat("VTU", "meshio", True, True, ("meshio", "pyvista")),
+    ".vtp": MeshFormat("VTP", "vtkxml", True, True, ("pyvista",)),
+    ".vtk": MeshFormat("legacy VTK", "legacy", True, True, ("meshio", "pyvista")),
+    ".ply": MeshFormat("PLY", "meshio", True, True, ("meshio",)),
+    ".off": MeshFormat("OFF", "meshio", True, False),
+    ".obj": MeshFormat("OBJ", "meshio", True, False),
+    ".stl": MeshFormat("STL", "meshio", True, False, vertex_numbering=False),
+    ".gii": MeshFormat("GIfTI", "gifti", False, True, ("nibabel",), extra="neuro"),
 }
+#: FreeSurfer triangle surfaces, recognised by their magic number
+FREESURFER = MeshFormat("FreeSurfer surface", "freesurfer", False, False, extra="neuro")
+_READERS_SHOWN = {"meshio": "meshio", "pyvista": "pyvista/VTK/ParaView", "nibabel": "nibabel"}
 
-VALUE_FORMATS = (".csv", ".npy")
-SAMPLE_FORMATS = (".csv", ".npz", ".npy")
-_VERTEX_COLUMNS = ("vertex", "idx", "index", "vertex_id", "id")
+
+@dataclass
+class MeshFile:
+    """A surface read from a file.
+
+    Attributes
+    ----------
+    V : (n, 3) float64 numpy array
+    F : (m, 3) int64 numpy array
+    point_data : dict of str to (n,) or (n, p) numpy array
+        The per-vertex arrays stored with it.
+    format : MeshFormat
+    path : Path
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    point_data: dict = field(default_factory=dict)
+    format: MeshFormat = None
+    path: Path = None
+
+    @property
+    def vertex_numbering(self):
+        """None if vertex numbers in sample files refer to this mesh's vertices, else why they cannot."""
+        if self.format is None or self.format.vertex_numbering:
+            return None
+        return (f"{self.path.name}: {self.format.name} does not keep vertex numbers (its reader merges the corners "
+                f"of the triangles), so samples given by vertex index would land on other vertices")
 
 
-def _suffix(path, allowed, what):
+def mesh_format(path, *, writing=False):
+    """The :class:`MeshFormat` of ``path`` (by extension, else FreeSurfer by magic number).
+
+    Raises
+    ------
+    ReadError or WriteError
+        An extension manifill does not read (or write).
+    """
     ext = Path(path).suffix.lower()
-    if ext not in allowed:
-        raise (WriteError if what.startswith("write") else ReadError)(
-            f"{Path(path).name}: cannot {what} '{ext or '(no extension)'}' files; use one of {', '.join(allowed)}"
-        )
-    return ext
+    fmt = MESH_FORMATS.get(ext)
+    if writing:
+        if fmt is None or not fmt.write:
+            raise WriteError(f"{Path(path).name}: cannot write '{ext or '(no extension)'}' meshes; use one of "
+                             f"{', '.join(e for e, f in MESH_FORMATS.items() if f.write)}")
+        return fmt
+    if fmt is None:
+        from .neuro import sniff
+
+        if Path(path).is_file() and sniff(path) == "freesurfer-surface":
+            return FREESURFER
+        raise ReadError(f"{Path(path).name}: cannot read '{ext or '(no extension)'}' files; use one of "
+                        f"{', '.join(MESH_FORMATS)} or a FreeSurfer surface")
+    return fmt
 
 
-@contextmanager
-def atomic_path(path):
-    """A temporary path beside ``path`` that replaces it on success.
+def read_mesh_file(path):
+    """Read a triangle surface and the per-vertex fields stored with it.
+
+    Formats: VTU, VTP, legacy VTK (POLYDATA or UNSTRUCTURED_GRID), PLY, OFF, OBJ,
+    STL, GIfTI ``.surf.gii`` and FreeSurfer surfaces (the last two need the
+    ``[neuro]`` extra). Quads and polygons are split into triangles; other cells
+    are ignored.
 
     Parameters
     ----------
     path : str or Path
-        Final destination.
 
-    Yields
-    ------
-    Path
-        Where to write; renamed to ``path`` when the block completes, removed
-        if it raises.
+    Returns
+    -------
+    MeshFile
 
     Raises
     ------
-    WriteError
-        If the destination folder does not exist.
+    ReadError
+        A missing file, an unknown extension, a damaged file (one line naming
+        the file), or a file without triangles.
     """
     path = Path(path)
-    if not path.parent.is_dir():
-        raise WriteError(f"folder {path.parent} does not exist; create it first or choose another output path")
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    fmt = mesh_format(path)
+    check_input_file(path)
+    if fmt.reader == "meshio":
+        V, F, point_data = _read_meshio(path, fmt)
+    elif fmt.reader == "vtkxml":
+        from .vtkxml import read_polydata
+
+        V, F, point_data = read_polydata(path)
+    elif fmt.reader == "legacy":
+        from .vtklegacy import read_legacy
+
+        V, cells, point_data = read_legacy(path)
+        F = cells.get("triangle")
+        if F is None or len(F) == 0:
+            _no_triangles(path, sorted(k for k, c in cells.items() if len(c)))
+    elif fmt.reader == "gifti":
+        from .neuro import read_gifti
+
+        V, F, point_data = read_gifti(path)
+    else:
+        from .neuro import read_freesurfer_surface
+
+        V, F = read_freesurfer_surface(path)
+        point_data = {}
+    V = np.asarray(V, dtype=np.float64)
+    if V.ndim == 2 and V.shape[1] == 2:
+        V = np.column_stack([V, np.zeros(len(V))])
+    point_data = {str(k): np.asarray(a) for k, a in point_data.items() if np.shape(a)[:1] == (len(V),)}
+    return MeshFile(V, np.asarray(F, dtype=np.int64), point_data, fmt, path)
 
 
 def read_mesh(path):
-    """Read a triangle mesh (OFF, OBJ, PLY, STL, VTK, VTU).
-
-    Quads are split into two triangles; other cell types are ignored.
+    """Read a triangle mesh (see :func:`read_mesh_file` for the formats).
 
     Parameters
     ----------
@@ -106,45 +215,50 @@ def read_mesh(path):
     Raises
     ------
     ReadError
-        A missing file, an unknown extension, a file meshio cannot parse, or
-        a file without triangles or quads.
+        A missing file, an unknown extension, a damaged file, or a file
+        without triangles or quads.
     """
-    path = Path(path)
-    ext = _suffix(path, tuple(MESH_FORMATS), "read")
-    if not path.is_file():
-        raise ReadError(f"{path}: no such file")
-    if ext == ".off":
-        _check_off_header(path)
-    mesh = _meshio_read(path, ext, MESH_FORMATS[ext][0])
-    faces = []
-    for block in mesh.cells:
-        if block.type == "triangle":
-            faces.append(block.data)
-        elif block.type == "quad":
-            q = block.data
-            faces.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
-    if not faces:
-        kinds = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
-        raise ReadError(f"{path.name}: holds no triangles (cells found: {kinds}); pass a surface mesh")
-    V = np.asarray(mesh.points, dtype=np.float64)
-    if V.ndim == 2 and V.shape[1] == 2:
-        V = np.column_stack([V, np.zeros(len(V))])
-    return V, np.concatenate(faces).astype(np.int64)
+    m = read_mesh_file(path)
+    return m.V, m.F
 
 
-def _meshio_read(path, ext, fmt):
-    """meshio's reader of one format, with its failures as one-line :class:`ReadError`."""
+def _no_triangles(path, kinds):
+    hint = "; for a solid of tetrahedra use 'manifill volume'" if "tetra" in kinds else ""
+    raise ReadError(f"{Path(path).name}: holds no triangles (cells found: {', '.join(kinds) or 'none'}){hint}; "
+                    f"pass a surface mesh")
+
+
+def _read_meshio(path, fmt):
+    """A surface through meshio's reader of one format, damaged files as one-line :class:`ReadError`."""
     import meshio
 
-    try:
-        return getattr(meshio, fmt).read(str(path))  # not meshio.read: it sys.exit()s on bad files
-    except (meshio.ReadError, ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
-        msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ReadError(f"{path.name}: not a readable {ext[1:].upper()} mesh ({msg}); check the file") from None
+    ext = path.suffix.lower()
+    if ext == ".off":
+        _check_off_header(path)
+    with reading(path, f"{fmt.name} mesh"):
+        mesh = getattr(meshio, ext[1:]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
+        faces = []
+        for block in mesh.cells:
+            data = np.asarray(block.data)
+            if block.type == "triangle":
+                faces.append(data.reshape(-1, 3))
+            elif block.type == "quad":
+                q = data.reshape(-1, 4)
+                faces.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
+            elif block.type.startswith("polygon") and data.ndim == 2 and data.shape[1] > 4:
+                faces += [data[:, [0, j, j + 1]] for j in range(1, data.shape[1] - 1)]
+        if not faces:
+            _no_triangles(path, sorted({b.type for b in mesh.cells}))
+        F = np.concatenate(faces)
+        if F.dtype.kind not in "iu":
+            raise ReadError(f"{path.name}: the faces are stored as {F.dtype}, not integers; check the file")
+        V = np.asarray(mesh.points, dtype=np.float64)
+        point_data = {k: np.asarray(v) for k, v in mesh.point_data.items()}
+    return V, F.astype(np.int64), point_data
 
 
 def _check_off_header(path):
-    """Reject an OFF file without its counts line (meshio's reader would never return)."""
+    """Reject an OFF file without its counts line, or with counts the file cannot hold."""
     words = []
     try:
         with open(path, "rb") as fh:
@@ -156,15 +270,136 @@ def _check_off_header(path):
                     break
     except OSError as exc:
         raise ReadError(f"{path.name}: could not read ({exc})") from None
-    ok = len(words) >= 4 and words[0].endswith(b"OFF")
-    if ok:
+    counts = None
+    if len(words) >= 4 and words[0].endswith(b"OFF"):
         try:
-            [int(w) for w in words[1:4]]
+            counts = [int(w) for w in words[1:4]]
         except ValueError:
-            ok = False
-    if not ok:
+            counts = None
+    if counts is None:
         raise ReadError(f"{path.name}: not a readable OFF mesh (no 'OFF' line followed by vertex, face "
                         f"and edge counts); check the file")
+    check_count(counts[0], path, "vertices", bytes_each=6)
+    check_count(counts[1], path, "faces", bytes_each=8)
+
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
+
+
+def check_field_names(names, path=None, *, masks=True):
+    """Refuse field names that no format can store, or that a mask of manifill's uses.
+
+    Parameters
+    ----------
+    names : iterable of str
+    path : str or Path, optional
+        The output (for the message).
+    masks : bool, optional
+        Also refuse :data:`RESERVED_NAMES` (the output gets those masks).
+
+    Raises
+    ------
+    WriteError
+        An empty name, a name with a line break or another control character,
+        or a reserved name; the message says how to rename it.
+    """
+    where = f"{Path(path).name}: " if path is not None else ""
+    for name in names:
+        name = str(name)
+        if not name.strip():
+            raise WriteError(f"{where}a field has an empty name; give every value column a name")
+        if _CONTROL.search(name):
+            raise WriteError(f"{where}field name {name!r} holds a line break or control character, which no mesh "
+                             f"format can store; rename the value column")
+        if masks and name in RESERVED_NAMES:
+            raise WriteError(f"{where}field name {name!r} is the name of manifill's mask in the output; rename the "
+                             f"value column")
+
+
+def stored_names(names, ext):
+    """The name each field gets in a file of extension ``ext``.
+
+    VTU, VTP and VTI keep any text; PLY, legacy VTK and Gmsh hold plain ASCII
+    words, so there every other character becomes ``_`` (and PLY's ``x``, ``y``, ``z``, a
+    leading digit or a repeated name get a ``field_`` prefix).
+
+    Parameters
+    ----------
+    names : iterable of str
+    ext : str
+        The extension, with its dot.
+
+    Returns
+    -------
+    dict of str to str
+
+    Raises
+    ------
+    WriteError
+        As :func:`check_field_names` (reserved names allowed).
+
+    Examples
+    --------
+    >>> stored_names(["temp (K)", "x"], ".ply")
+    {'temp (K)': 'temp__K_', 'x': 'field_x'}
+    >>> stored_names(["temp (K)"], ".vtu")
+    {'temp (K)': 'temp (K)'}
+    """
+    names = [str(n) for n in names]
+    check_field_names(names, masks=False)
+    if ext not in (".ply", ".vtk", ".msh"):
+        return {n: n for n in names}
+    out, taken = {}, set()
+    for name in names:
+        key = re.sub(r"[^0-9A-Za-z_]", "_", name)
+        if ext == ".ply" and (key in ("x", "y", "z") or key[0].isdigit()):
+            key = f"field_{key}"
+        if ext == ".vtk" and (key.lower().startswith("metadata") or key == "NULL_ARRAY"):
+            key = f"field_{key}"  # VTK's reader takes such a line for a section of its own
+        while key in taken:
+            key = f"field_{key}"
+        taken.add(key)
+        out[name] = key
+    return out
+
+
+def format_note(path):
+    """One line telling which common readers will not see the fields of ``path`` (None if all do).
+
+    Examples
+    --------
+    >>> print(format_note("out.ply"))
+    note: out.ply: pyvista/VTK/ParaView do not show PLY files' named fields (meshio does); write .vtu for every reader
+    """
+    fmt = MESH_FORMATS.get(Path(path).suffix.lower())
+    if fmt is None or not fmt.fields:
+        return None
+    missing = [r for r in ("meshio", "pyvista") if r not in fmt.seen_by]
+    if not missing:
+        return None
+    shown = " and ".join(_READERS_SHOWN[r] for r in missing)
+    seen = ", ".join(_READERS_SHOWN[r] for r in fmt.seen_by)
+    verb = "does" if len(fmt.seen_by) == 1 else "do"
+    return (f"note: {Path(path).name}: {shown} do not show {fmt.name} files' named fields ({seen} {verb}); write "
+            f".vtu for every reader")
+
+
+def _field_array(name, arr, n):
+    arr = np.asarray(arr)
+    if np.iscomplexobj(arr) or not (arr.dtype == bool or np.issubdtype(arr.dtype, np.number)):
+        raise WriteError(f"field {name!r} is {arr.dtype}; pass real numbers")
+    if arr.ndim not in (1, 2):
+        raise WriteError(f"field {name!r} has shape {arr.shape}; pass (n,) or (n, p) per-vertex values")
+    if arr.shape[0] != n:
+        raise WriteError(f"field {name!r} has {arr.shape[0]} values for {n} vertices; pass one per vertex")
+    if arr.dtype == bool:
+        return arr.astype(np.uint8)
+    if np.issubdtype(arr.dtype, np.integer):
+        i32 = np.iinfo(np.int32)
+        if arr.size and (int(arr.min()) < i32.min or int(arr.max()) > i32.max):
+            raise WriteError(f"field {name!r} holds integers beyond 32 bits; store it as floats")
+        return arr.astype(np.int32)
+    return arr.astype(np.float64)
 
 
 def write_mesh(path, V, F, point_data=None):
@@ -173,265 +408,121 @@ def write_mesh(path, V, F, point_data=None):
     Parameters
     ----------
     path : str or Path
-        Destination; the extension selects the format. Fields need PLY, VTK
-        or VTU.
-    V : (n, 3) numpy array
+        Destination; the extension selects the format. Fields need VTU, VTP,
+        legacy VTK or PLY (see :data:`MESH_FORMATS` for who reads them back).
+    V : (n, 3) numpy array, or a mesh object with ``F=None``
         Vertex positions.
     F : (m, 3) numpy array of int
         Triangles.
     point_data : dict of str to (n,) or (n, p) numpy array, optional
-        Named fields. A ``(n, p)`` field is written as one ``p``-component
-        array in VTU, and in VTK when ``p`` is 3; otherwise (PLY, and VTK with
-        ``p`` other than 3) as ``p`` scalar fields ``name_0 ... name_{p-1}``.
-        Integer and boolean fields (labels, masks) keep an integer type. PLY
-        property names must be plain words distinct from the coordinates, so
-        there other characters become ``_`` and ``x``, ``y``, ``z`` (or a
-        repeated name) get a ``field_`` prefix.
+        Named fields. A ``(n, p)`` field is one ``p``-component array in VTU,
+        VTP and VTK, and ``p`` scalar fields ``name_0 ... name_{p-1}`` in PLY.
+        Boolean fields (masks) are stored as 0/1 bytes, integer fields (labels)
+        as 32-bit integers, the rest as float64.
 
     Returns
     -------
     dict of str to str
-        The name each field was written under (differs from the given name
-        only for PLY, as above).
+        The name each field was written under (see :func:`stored_names`).
 
     Raises
     ------
     WriteError
-        Unknown extension, fields for a format that cannot hold them, a
-        missing folder, or a failure while writing (nothing is left behind).
+        Unknown extension, fields for a format that cannot hold them, names no
+        format can store, a missing folder, or a failure while writing
+        (nothing is left behind).
     """
-    import meshio
-
-    ext = _suffix(path, tuple(MESH_FORMATS), "write")
-    fmt, has_fields = MESH_FORMATS[ext]
-    point_data = dict(point_data or {})
-    if point_data and not has_fields:
-        raise WriteError(
-            f"{Path(path).name}: {ext[1:].upper()} cannot store per-vertex fields; write .ply, .vtu or .vtk "
-            f"(or the values alone as .csv/.npy)"
-        )
-    from .errors import ManifillError
+    from .meshobj import mesh_arrays
     from .validate import as_mesh
 
+    ext = Path(path).suffix.lower()
+    fmt = mesh_format(path, writing=True)
+    point_data = dict(point_data or {})
+    if point_data and not fmt.fields:
+        raise WriteError(
+            f"{Path(path).name}: {fmt.name} cannot store per-vertex fields; write .vtu, .vtp, .vtk or .ply "
+            f"(or the values alone as .csv/.npy)"
+        )
     try:
-        V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+        V, F = as_mesh(*mesh_arrays(V, F), allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     except ManifillError as exc:
         raise WriteError(f"{Path(path).name}: not written, the mesh is malformed: {exc}") from None
-    out, written = {}, {}
-    n = len(V)
-    for name, arr in point_data.items():
-        arr = np.asarray(arr)
-        if arr.ndim not in (1, 2):
-            raise WriteError(f"field {name!r} has shape {arr.shape}; pass (n,) or (n, p) per-vertex values")
-        if arr.dtype == bool:
-            arr = arr.astype(np.uint8)
-        elif np.issubdtype(arr.dtype, np.integer):
-            arr = arr.astype(np.int32)
-        else:
-            arr = arr.astype(np.float64)
-        if arr.shape[0] != n:
-            raise WriteError(f"field {name!r} has {arr.shape[0]} values for {n} vertices; pass one per vertex")
-        key = _ply_name(name, out) if fmt == "ply" else str(name)
-        written[name] = key
-        if arr.ndim == 2 and (fmt == "ply" or (fmt == "vtk" and arr.shape[1] != 3)):
+    return write_cells(path, V, F, point_data)
+
+
+def write_cells(path, V, C, point_data=None):
+    """Write validated triangles or tetrahedra with named per-vertex fields, atomically, by extension.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.vtu``, ``.vtp`` (triangles), ``.vtk``, ``.ply``, ``.off``, ``.obj``,
+        ``.stl`` (triangles, no fields there) or ``.msh`` (Gmsh).
+    V : (n, 3) float64 numpy array
+    C : (m, 3) or (m, 4) int64 numpy array
+    point_data : dict of str to (n,) or (n, p) numpy array, optional
+
+    Returns
+    -------
+    dict of str to str
+        The name each field was written under.
+
+    Raises
+    ------
+    WriteError
+        As :func:`write_mesh`.
+    """
+    ext = Path(path).suffix.lower()
+    kind = "triangle" if C.shape[1] == 3 else "tetra"
+    names = stored_names(point_data or {}, ext)
+    out = {}
+    for name, arr in (point_data or {}).items():
+        arr = _field_array(name, arr, len(V))
+        key = names[str(name)]
+        if arr.ndim == 2 and ext == ".ply":
             for j in range(arr.shape[1]):
                 out[f"{key}_{j}"] = np.ascontiguousarray(arr[:, j])
         else:
             out[key] = arr
-    mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), [("triangle", np.asarray(F, dtype=np.int32))], point_data=out)
+    if ext == ".vtp":
+        from .vtkxml import write_polydata
+
+        write_polydata(path, V, C, out)
+    elif ext == ".vtu":
+        from .vtkxml import write_unstructured
+
+        write_unstructured(path, V, C, out)
+    elif ext == ".vtk":
+        from .vtklegacy import write_legacy
+
+        write_legacy(path, V, kind, C, out)
+    else:
+        _write_meshio(path, V, [(kind, C.astype(np.int32))], out, "gmsh22" if ext == ".msh" else ext[1:])
+    return names
+
+
+def _write_meshio(path, V, cells, point_data, fmt):
+    import meshio
+
+    mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), cells, point_data=point_data)
     with atomic_path(path) as tmp:
         try:
-            meshio.write(tmp, mesh, file_format=fmt)
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                meshio.write(tmp, mesh, file_format=fmt)
         except (meshio.WriteError, ValueError, KeyError, TypeError, OSError) as exc:
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path and the fields") from None
-    return written
 
 
-def _ply_name(name, taken):
-    """A PLY property name for ``name``: a plain word, not a coordinate, not taken."""
-    key = re.sub(r"\W", "_", str(name)) or "field"
-    if key in ("x", "y", "z") or key[0].isdigit():
-        key = f"field_{key}"
-    while key in taken:
-        key = f"field_{key}"
-    return key
+# kept for the modules that check suffixes and read through meshio
+_suffix = suffix
 
 
-def _split_header(header, path):
-    cols = [h.strip().lower() for h in header]
-    if len(cols) >= 2 and cols[0] in _VERTEX_COLUMNS:
-        return "vertex", 1
-    if len(cols) >= 4 and cols[:3] == ["x", "y", "z"]:
-        return "points", 3
-    raise ReadError(
-        f"{Path(path).name}: header {','.join(header)!r} is neither 'vertex,value[,...]' nor "
-        f"'x,y,z,value[,...]'; add such a header line"
-    )
+def _meshio_read(path, ext, fmt):
+    """meshio's reader of one format, with a damaged file as one-line :class:`ReadError`."""
+    import meshio
 
-
-def read_samples(path, V, *, duplicates="error", max_distance=None):
-    """Read samples from CSV, NPZ or NPY, snapping positions to vertices.
-
-    Parameters
-    ----------
-    path : str or Path
-        The file (see the module docstring for the layouts).
-    V : (n, 3) numpy array
-        Vertex positions of the mesh the samples belong to.
-    duplicates : {'error', 'mean'}, optional
-        Several samples on one vertex with different values: raise, or average.
-    max_distance : float, optional
-        Largest accepted snap distance for positions (see
-        :func:`manifill.samples.snap_to_vertices`).
-
-    Returns
-    -------
-    Samples
-        Unique vertex indices, values, field names and snap distances.
-
-    Raises
-    ------
-    ReadError
-        Missing file, unknown extension, bad header, non-numeric cells (the
-        line and column are named).
-    SampleError
-        Out-of-range indices, NaN values, far-away positions ("wrong units?"),
-        conflicting duplicates.
-    """
-    path = Path(path)
-    ext = _suffix(path, SAMPLE_FORMATS, "read")
-    if not path.is_file():
-        raise ReadError(f"{path}: no such file")
-    if ext == ".csv":
-        kind, table, names = _read_csv(path)
-    elif ext == ".npz":
-        kind, table, names = _read_npz(path)
-    else:
-        kind, table, names = _read_structured_npy(path)
-    if kind == "vertex":
-        col = table[:, 0]
-        if np.any(np.abs(col) >= 2.0**62):
-            row = int(np.flatnonzero(np.abs(col) >= 2.0**62)[0])
-            raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is far too large")
-        if not np.all(col == np.round(col)):
-            row = int(np.flatnonzero(col != np.round(col))[0])
-            raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is not an integer")
-        return Samples.from_indices(col.astype(np.int64), table[:, 1:], len(V), names=names, duplicates=duplicates)
-    return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
-                               max_distance=max_distance)
-
-
-def _read_csv(path):
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            rows, lineno = [], []
-            for r in reader:
-                if r and any(c.strip() for c in r):
-                    rows.append(r)
-                    lineno.append(reader.line_num)
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise ReadError(f"{path.name}: could not read as CSV ({exc})") from None
-    if not rows:
-        raise ReadError(f"{path.name}: empty file; expected a header and one row per sample")
-    header = rows[0]
-    kind, ncoord = _split_header(header, path)
-    if len(rows) == 1:
-        raise ReadError(f"{path.name}: a header but no samples; add one row per sample")
-    table = np.empty((len(rows) - 1, len(header)))
-    for i, row in enumerate(rows[1:]):
-        if len(row) != len(header):
-            raise ReadError(f"{path.name}: line {lineno[i + 1]} has {len(row)} fields, the header {len(header)}")
-        for j, cell in enumerate(row):
-            try:
-                table[i, j] = float(cell)
-            except ValueError:
-                raise ReadError(
-                    f"{path.name}: line {lineno[i + 1]}, column {header[j].strip()!r}: {cell!r} is not a number"
-                ) from None
-    bad = ~np.isfinite(table).all(axis=1)
-    if bad.any():
-        lines = ", ".join(str(lineno[int(r) + 1]) for r in np.flatnonzero(bad)[:5])
-        raise SampleError(f"{path.name}: NaN or infinite values on lines {lines}; remove or fix those samples")
-    return kind, table, [h.strip() for h in header[ncoord:]]
-
-
-def _read_npz(path):
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError):
-        raise ReadError(f"{path.name}: not a readable .npz archive; save it with numpy.savez") from None
-    if "vals" not in data or not ({"idx", "points"} & set(data)):
-        raise ReadError(f"{path.name}: needs arrays 'vals' and 'idx' (or 'points'); found {sorted(data)}")
-    try:
-        vals = np.asarray(data["vals"], dtype=np.float64)
-        key = "idx" if "idx" in data else "points"
-        loc = np.asarray(data[key], dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ReadError(f"{path.name}: 'vals' and '{key}' must be numeric arrays") from None
-    vals = vals[:, None] if vals.ndim == 1 else vals
-    names = [str(s) for s in data["names"]] if "names" in data else None
-    want = "(k,)" if key == "idx" else "(k, 3)"
-    if vals.ndim != 2 or loc.ndim != (1 if key == "idx" else 2) or len(loc) != len(vals) or (
-            key == "points" and loc.shape[1] != 3):
-        raise ReadError(f"{path.name}: '{key}' has shape {loc.shape} and 'vals' {vals.shape}; pass '{key}' "
-                        f"as {want} and 'vals' as (k,) or (k, p) with one row per sample")
-    return ("vertex" if key == "idx" else "points"), np.column_stack([loc, vals]), names
-
-
-def _read_structured_npy(path):
-    try:
-        arr = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError):
-        raise ReadError(f"{path.name}: not a readable .npy array; save it with numpy.save") from None
-    if arr.dtype.names is None:
-        raise ReadError(
-            f"{path.name}: a plain array has no column names; save a structured array with fields "
-            f"vertex (or x, y, z) and the values, or an .npz with 'idx' (or 'points') and 'vals'"
-        )
-    header = list(arr.dtype.names)
-    kind, ncoord = _split_header(header, path)
-    try:
-        table = np.column_stack([np.asarray(arr[h], dtype=np.float64).ravel() for h in header])
-    except (TypeError, ValueError):
-        raise ReadError(f"{path.name}: every field of the array must be numeric") from None
-    return kind, table, header[ncoord:]
-
-
-def write_values(path, values, names=None):
-    """Write per-vertex values as CSV (``vertex,name...``) or NPY, atomically.
-
-    Parameters
-    ----------
-    path : str or Path
-        ``.csv`` or ``.npy``.
-    values : (n,) or (n, p) numpy array
-        One row per vertex.
-    names : list of str, optional
-        Column names for CSV; ``value``, ``value2``, ... by default.
-
-    Raises
-    ------
-    WriteError
-        Unknown extension, missing folder or a failed write.
-    """
-    ext = _suffix(path, VALUE_FORMATS, "write")
-    values = np.asarray(values, dtype=np.float64)
-    values = values[:, None] if values.ndim == 1 else values
-    if values.ndim != 2:
-        raise WriteError(f"values have shape {values.shape}; pass (n,) or (n, p) per-vertex values")
-    names = field_names(names, values.shape[1])
-    if ext == ".csv" and any(("," in nm or '"' in nm or "\n" in nm) for nm in names):
-        raise WriteError("a column name holds a comma, quote or line break; rename it for CSV")
-    with atomic_path(path) as tmp:
-        try:
-            if ext == ".npy":
-                with open(tmp, "wb") as fh:
-                    np.save(fh, values[:, 0] if values.shape[1] == 1 else values)
-            else:
-                table = np.column_stack([np.arange(len(values)), values])
-                fmt = ["%d"] + ["%.17g"] * values.shape[1]
-                np.savetxt(tmp, table, fmt=fmt, delimiter=",", header=",".join(["vertex", *names]), comments="")
-        except OSError as exc:
-            raise WriteError(f"{Path(path).name}: could not write ({exc})") from None
+    with reading(path, f"{ext[1:].upper()} mesh"):
+        return getattr(meshio, fmt).read(str(path))  # not meshio.read: it sys.exit()s on bad files

@@ -55,6 +55,12 @@ class Reconstruction:
         Diagnostics: the gradual variation check per field (Lipschitz
         constant, level step, violations), the partition's report, the
         harmonic solver's report, and ``seconds`` per step.
+    V : (n, 3) numpy array
+        The surface's vertices (as validated).
+    F : (m, 3) int64 numpy array or None
+        Its triangles (None on a digital surface, which has none).
+    idx : (k,) int64 numpy array
+        The sample vertices (sorted, unique).
     """
 
     values: np.ndarray
@@ -63,6 +69,52 @@ class Reconstruction:
     on_curve: np.ndarray
     levels: list
     report: dict = field(default_factory=dict)
+    V: np.ndarray = None
+    F: np.ndarray = None
+    idx: np.ndarray = None
+
+    def point_data(self, names=None):
+        """The fields and manifill's masks, named as in every output file.
+
+        Parameters
+        ----------
+        names : list of str, optional
+            One name per field (``value``, ``value2``, ... by default).
+
+        Returns
+        -------
+        dict of str to (n,) numpy array
+            The fields, ``sample_mask``, ``curve_mask`` and ``patch_label``.
+        """
+        from .io import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK
+        from .samples import field_names
+
+        X = self.values if self.values.ndim == 2 else self.values[:, None]
+        data = dict(zip(field_names(names, X.shape[1]), X.T))
+        sample = np.zeros(len(X), dtype=bool)
+        sample[self.idx] = True
+        return {**data, SAMPLE_MASK: sample, CURVE_MASK: self.on_curve, PATCH_LABEL: self.components}
+
+    def to_pyvista(self, names=None):
+        """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).
+
+        Examples
+        --------
+        >>> from manifill.shapes import icosphere
+        >>> V, F = icosphere(2)
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> sorted(r.to_pyvista(["t"]).point_data.keys())
+        ['curve_mask', 'patch_label', 'sample_mask', 't']
+        """
+        from .meshobj import to_pyvista
+
+        return to_pyvista(self.V, self.F, self.point_data(names))
+
+    def to_meshio(self, names=None):
+        """The surface with every field and mask as a ``meshio.Mesh``."""
+        from .meshobj import to_meshio
+
+        return to_meshio(self.V, self.F, self.point_data(names))
 
 
 def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
@@ -307,4 +359,7 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
         on_curve=fixed,
         levels=levels_out,
         report=report,
+        V=V,
+        F=F,
+        idx=idx,
     )

@@ -3,7 +3,8 @@
 The surface coloured by the field with a colour bar, the samples as points, the
 partition curves as lines; several panels side by side like the paper's figures;
 three orthogonal slices through a solid. Everything renders off-screen, so it works
-on a machine with no display.
+on a machine with no display. :func:`render` takes several named fields and draws
+the one chosen by name.
 """
 
 import ctypes.util
@@ -12,6 +13,7 @@ import os
 import numpy as np
 
 from .errors import WriteError
+from .viewer import named_fields, choose_field
 
 __all__ = ["render", "render_panels", "render_slices"]
 
@@ -127,25 +129,45 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         pl.close()
 
 
-def render(V, F, values, path, *, samples=None, curves=None, title=None, name="value", size=(900, 700),
-           cmap="viridis", view=None, viewup=None):
+def render(V, F, values, path, *, samples=None, curves=None, title=None, name="value", names=None, field=None,
+           size=(900, 700), cmap="viridis", view=None, viewup=None):
     """Render one surface coloured by a field into a PNG.
 
     Parameters
     ----------
     V : (n, 3) numpy array
     F : (m, 3) numpy array of int
-    values : (n,) numpy array or None
+    values : (n,) or (n, p) numpy array, dict of str to (n,) array, or None
+        The field(s); None draws the surface grey. Only the field ``field`` is drawn.
     path : str or Path
     samples : (k,) array of int, optional
         Drawn as red points.
     curves : list of (l,) int arrays, optional
         Drawn as black lines.
-    title, name, size, cmap, view, viewup
+    name : str, optional
+        The name of a (n,) field, for the colour bar; the prefix ``name_0 ... name_{p-1}``
+        of the columns of a (n, p) one without ``names``.
+    names : list of p str, optional
+        The names of the columns of a (n, p) ``values``.
+    field : str, optional
+        The name of the field to draw (default: the first).
+    title, size, cmap, view, viewup
         See :func:`render_panels`.
+
+    Raises
+    ------
+    OptionError
+        If ``field`` names no field (the message lists them), or ``names`` does not fit.
+    WriteError
+        If a field does not hold one number per vertex, or the image cannot be written.
+    ImportError
+        Without pyvista.
     """
-    render_panels([dict(V=V, F=F, values=values, samples=samples, curves=curves, title=title, name=name)], path,
-                  size=size, cmap=cmap, view=view, viewup=viewup)
+    fields = named_fields(values, len(V), names=names, name=name)
+    chosen = choose_field(fields, field)
+    x = None if chosen is None else fields[chosen]
+    render_panels([dict(V=V, F=F, values=x, samples=samples, curves=curves, title=title,
+                        name=name if chosen is None else chosen)], path, size=size, cmap=cmap, view=view, viewup=viewup)
 
 
 def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 450), cmap="viridis"):

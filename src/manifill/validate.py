@@ -5,6 +5,8 @@ and duplicates, and raises one of manifill's errors whose one-line message names
 bad thing and the fix. Core functions call these and then trust their arrays.
 """
 
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -20,7 +22,9 @@ __all__ = [
     "as_samples",
     "check_option",
     "bbox_diagonal",
+    "unit_scale",
     "double_areas",
+    "zero_area_faces",
     "duplicate_vertex_pairs",
 ]
 
@@ -73,6 +77,81 @@ def check_option(name, value, allowed):
     return value
 
 
+#: Positions whose largest bounding-box half-extent has a binary exponent within
+#: ``-UNIT_WINDOW .. UNIT_WINDOW`` (about 2e-10 to 4e9) are used as they are: products of
+#: such coordinates neither overflow nor underflow, and the results stay bit for bit.
+UNIT_WINDOW = 32
+
+
+def _half_extents(V):
+    """Half the bounding-box extent of ``V`` along every axis, as floats (no overflow)."""
+    # column by column: a strided reduction per column is ~10x faster than axis=0 on (n, 3)
+    return [0.5 * float(V[:, k].max()) - 0.5 * float(V[:, k].min()) for k in range(V.shape[1])]
+
+
+def _scale_of(h):
+    """The power of two ``2**e`` with ``h = m 2**e``, ``0.5 <= m < 1``; 1.0 inside the window or for ``h = 0``."""
+    if not (h > 0 and np.isfinite(h)):
+        return 1.0
+    e = math.frexp(h)[1]
+    if -UNIT_WINDOW <= e <= UNIT_WINDOW:
+        return 1.0
+    return math.ldexp(1.0, min(max(e, -1020), 1020))
+
+
+def unit_scale(V):
+    """A power of two ``s`` that brings the positions ``V / s`` to about unit size.
+
+    Dividing by a power of two is exact, so lengths, areas and volumes computed on
+    ``V / s`` and multiplied back by ``s``, ``s**2``, ``s**3`` equal the ones computed
+    on ``V`` wherever the latter do not overflow or underflow, and angles, cotangent
+    weights and normals are unchanged. Meshes in metres at the size of a planet or in
+    nanometres thus work like unit ones.
+
+    Parameters
+    ----------
+    V : (n, d) numpy array
+        Points (or difference vectors).
+
+    Returns
+    -------
+    float
+        ``1.0`` when the largest half-extent of the bounding box has a binary exponent
+        within ``-UNIT_WINDOW .. UNIT_WINDOW`` (then ``V`` is used as it is); otherwise
+        the power of two that brings it into ``[0.5, 1)``. If all points coincide,
+        their largest absolute coordinate decides instead.
+
+    Examples
+    --------
+    >>> unit_scale(np.array([[0.0, 0, 0], [1e150, 0, 0]])) == 2.0**498
+    True
+    >>> unit_scale(np.array([[0.0, 0, 0], [1e6, 0, 0]]))
+    1.0
+    """
+    V = np.asarray(V, dtype=np.float64)
+    if V.size == 0:
+        return 1.0
+    V = V.reshape(len(V), -1)
+    h = max(_half_extents(V))
+    if not h > 0:
+        h = max(float(np.abs(V[:, k]).max()) for k in range(V.shape[1]))
+    return _scale_of(h)
+
+
+def _bbox(V):
+    """``(s, diag)``: :func:`unit_scale` of ``V`` and its bounding-box diagonal in units of ``s``."""
+    if len(V) == 0:
+        return 1.0, 1.0
+    h = _half_extents(V)
+    s = _scale_of(max(h))
+    inv = 1.0 / s
+    # (2 h)**2 summed as in the plain formula, on extents of about unit size
+    d = float(np.sqrt(sum((2.0 * x * inv) ** 2 for x in h)))
+    if not d > 0:
+        return unit_scale(V), 0.0
+    return s, d
+
+
 def bbox_diagonal(V):
     """Length of the diagonal of the axis-aligned bounding box of ``V``.
 
@@ -84,13 +163,12 @@ def bbox_diagonal(V):
     Returns
     -------
     float
-        The diagonal length; 1.0 if ``V`` is empty or all points coincide.
+        The diagonal length (computed on extents of about unit size, so it neither
+        overflows nor underflows where the length itself is a float); 1.0 if ``V``
+        is empty or all points coincide.
     """
-    if len(V) == 0:
-        return 1.0
-    # column by column: a strided reduction per column is ~10x faster than axis=0 on (n, 3)
-    d = float(np.sqrt(sum((float(V[:, k].max()) - float(V[:, k].min())) ** 2 for k in range(V.shape[1]))))
-    return d if d > 0 else 1.0
+    s, d = _bbox(V)
+    return d * s if d > 0 else 1.0
 
 
 def _as_vertices(V):
@@ -138,6 +216,20 @@ def _as_faces(F, n, width=3, what="F", kind="triangles"):
     return np.ascontiguousarray(F)
 
 
+def _double_areas(V, F, inv=1.0):
+    """Twice the triangle areas of the positions ``V * inv`` (``inv`` a power of two)."""
+    a, b, c = (np.ascontiguousarray(F[:, k]) for k in range(3))
+    cols = [np.ascontiguousarray(V[:, k]) for k in range(3)]
+    if inv != 1.0:
+        cols = [x * inv for x in cols]
+    u = [x[b] - x[a] for x in cols]
+    v = [x[c] - x[a] for x in cols]
+    cx = u[1] * v[2] - u[2] * v[1]
+    cy = u[2] * v[0] - u[0] * v[2]
+    cz = u[0] * v[1] - u[1] * v[0]
+    return np.sqrt(cx * cx + cy * cy + cz * cz)
+
+
 def double_areas(V, F):
     """Twice the area of every triangle.
 
@@ -151,15 +243,39 @@ def double_areas(V, F):
     Returns
     -------
     (m,) numpy array
+        Computed on positions of about unit size (see :func:`unit_scale`) and
+        scaled back, so only areas that are themselves beyond the float range
+        overflow (to ``inf``) or underflow (to 0).
     """
-    a, b, c = (np.ascontiguousarray(F[:, k]) for k in range(3))
-    cols = [np.ascontiguousarray(V[:, k]) for k in range(3)]
-    u = [x[b] - x[a] for x in cols]
-    v = [x[c] - x[a] for x in cols]
-    cx = u[1] * v[2] - u[2] * v[1]
-    cy = u[2] * v[0] - u[0] * v[2]
-    cz = u[0] * v[1] - u[1] * v[0]
-    return np.sqrt(cx * cx + cy * cy + cz * cz)
+    s = unit_scale(V)
+    A = _double_areas(V, F, 1.0 / s)
+    return A if s == 1.0 else (A * s) * s
+
+
+def zero_area_faces(V, F):
+    """Faces whose area is at most ``TOL.degenerate_area * diag**2``, at any scale.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    F : (m, 3) numpy array of int
+        Triangles.
+
+    Returns
+    -------
+    (m,) bool numpy array
+        True for a zero-area face; the test runs on positions of about unit size,
+        so it means the same for a mesh in nanometres as in light years.
+
+    Examples
+    --------
+    >>> V = 1e-200 * np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]])
+    >>> zero_area_faces(V, np.array([[0, 1, 2], [0, 1, 3]])).tolist()
+    [False, True]
+    """
+    s, diag = _bbox(V)
+    return _double_areas(V, F, 1.0 / s) <= 2 * TOL.degenerate_area * diag * diag
 
 
 def duplicate_vertex_pairs(V, tol=None):
@@ -178,17 +294,22 @@ def duplicate_vertex_pairs(V, tol=None):
         Index pairs ``i < j`` of coinciding vertices.
     """
     tol = TOL.weld if tol is None else tol
-    eps = tol * bbox_diagonal(V)
+    # everything in units of s (a power of two): the KD-tree compares squared distances
+    s, diag = _bbox(V)
+    inv = 1.0 / s
+    eps = tol * (diag if diag > 0 else inv)
     # Coinciding points have nearly equal projections on any direction: only the
     # runs of nearly equal projections need a closer look.
     direction = np.array([0.5773502691896258, 0.6030226891555273, 0.5504818825631803])
     proj = V @ direction
+    if inv != 1.0:
+        proj *= inv
     order = np.argsort(proj, kind="stable")
     close = np.diff(proj[order]) <= eps * 1.0000001
     if not close.any():
         return np.empty((0, 2), dtype=np.int64)
     cand = np.unique(np.concatenate([order[:-1][close], order[1:][close]]))
-    pairs = cKDTree(V[cand]).query_pairs(eps, output_type="ndarray")
+    pairs = cKDTree(V[cand] * inv if inv != 1.0 else V[cand]).query_pairs(eps, output_type="ndarray")
     if len(pairs) == 0:
         return np.empty((0, 2), dtype=np.int64)
     pairs = np.sort(cand[pairs], axis=1)
@@ -233,6 +354,9 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
     >>> V.shape, F.dtype
     ((3, 3), dtype('int64'))
     """
+    from .meshobj import mesh_arrays
+
+    V, F = mesh_arrays(V, F)
     V = _as_vertices(V)
     n = len(V)
     F = _as_faces(F, n)
@@ -245,8 +369,7 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
             f"remove them with manifill.clean_mesh (CLI: --clean)"
         )
     if not allow_degenerate:
-        diag = bbox_diagonal(V)
-        bad = np.flatnonzero(double_areas(V, F) <= 2 * TOL.degenerate_area * diag * diag)
+        bad = np.flatnonzero(zero_area_faces(V, F))
         if bad.size:
             raise MeshError(
                 f"{bad.size} faces have zero area (faces {_first(bad)}); remove them "
@@ -302,6 +425,9 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
     >>> V.dtype, T.shape, T.dtype
     (dtype('float64'), (1, 4), dtype('int64'))
     """
+    from .meshobj import tet_arrays
+
+    V, T = tet_arrays(V, T)
     V3 = _as_vertices(V)
     if np.shape(V)[1] != 3:  # _as_vertices pads a flat (n, 2) mesh, which has no volume
         raise MeshError(f"V has shape {np.shape(V)}; a tetrahedral mesh needs an (n, 3) array of vertex positions")
@@ -317,9 +443,10 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
             f"remove them and renumber T"
         )
     if not allow_degenerate:
-        diag = bbox_diagonal(V)
-        a = V[T[:, 0]]
-        u, v, w = V[T[:, 1]] - a, V[T[:, 2]] - a, V[T[:, 3]] - a
+        s, diag = _bbox(V)  # volumes in units of s**3: no overflow or underflow at any scale
+        Vs = V if s == 1.0 else V * (1.0 / s)
+        a = Vs[T[:, 0]]
+        u, v, w = Vs[T[:, 1]] - a, Vs[T[:, 2]] - a, Vs[T[:, 3]] - a
         vol = np.einsum("ij,ij->i", np.cross(u, v), w) / 6.0
         bad = np.flatnonzero(np.abs(vol) <= TOL.degenerate_area * diag**3)
         if bad.size:
@@ -466,9 +593,13 @@ def as_values(bc, k, *, what="bc"):
     ((2, 1), True)
     """
     try:
-        bc = np.asarray(bc, dtype=np.float64)
+        raw = np.asarray(bc)
+        complex_values = np.iscomplexobj(raw)
+        bc = raw.astype(np.float64) if not complex_values else raw
     except (TypeError, ValueError):
         raise SampleError(f"{what} could not be read as numbers; pass a (k,) or (k, p) float array") from None
+    if complex_values:
+        raise SampleError(f"{what} holds complex numbers; pass real values (e.g. their .real or abs)")
     squeeze = bc.ndim == 1
     if squeeze:
         bc = bc[:, None]

@@ -1,0 +1,91 @@
+"""Named regressions for bad input that used to slip through: each ends in one manifill error, or is handled."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import assert_usage_error, files, run
+
+import manifill
+from manifill.errors import ReadError, SampleError
+from manifill.io import read_mesh_file, write_mesh
+from manifill.sampleio import read_samples
+from manifill.shapes import icosphere
+
+
+def test_regression_complex_sample_values_are_refused_not_truncated(tmp_path):
+    V, F = icosphere(1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's ComplexWarning used to be all that was said
+        with pytest.raises(SampleError, match="complex"):
+            manifill.harmonic(V, F, [0, 5], np.array([1 + 2j, 3 + 0j]))
+        np.savez(tmp_path / "c.npz", idx=np.array([0, 5]), vals=np.array([1 + 2j, 3 + 0j]))
+        with pytest.raises(SampleError, match="complex") as info:
+            read_samples(tmp_path / "c.npz", V)
+        assert "c.npz" in str(info.value)
+        arr = np.zeros(2, dtype=[("vertex", "i8"), ("value", "c16")])
+        np.save(tmp_path / "c.npy", arr)
+        with pytest.raises(SampleError, match="complex"):
+            read_samples(tmp_path / "c.npy", V)
+
+
+def test_regression_non_numeric_sample_arrays(tmp_path):
+    V, F = icosphere(1)
+    np.savez(tmp_path / "s.npz", idx=np.array([0, 5]), vals=np.array(["a", "b"]))
+    with pytest.raises(ReadError, match="not numbers") as info:
+        read_samples(tmp_path / "s.npz", V)
+    assert "s.npz" in str(info.value)
+    with pytest.raises(SampleError, match="could not be read as numbers"):
+        manifill.harmonic(V, F, [0, 5], ["a", "b"])
+
+
+def test_regression_ascii_stl_reads_without_warnings(tmp_path, capfd):
+    V, F = icosphere(1)
+    lines = ["solid s"]
+    for f in F:
+        a, b, c = V[f]
+        n = np.cross(b - a, c - a)
+        lines += [f"facet normal {n[0]} {n[1]} {n[2]}", "outer loop",
+                  *(f"vertex {p[0]} {p[1]} {p[2]}" for p in (a, b, c)), "endloop", "endfacet"]
+    (tmp_path / "a.stl").write_text("\n".join(lines + ["endsolid s"]) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = read_mesh_file(tmp_path / "a.stl")
+    assert caught == [] and capfd.readouterr() == ("", "")
+    assert len(m.F) == len(F) and len(m.V) == len(V)  # the corners merged back into the 42 vertices
+
+
+@pytest.mark.parametrize("shape", [(1, 6, 6), (6, 1, 6), (6, 6, 1), (1, 1, 1)])
+def test_regression_flat_voxel_mask_is_filled_from_its_boundary(shape):
+    # a mask one voxel thick is all boundary: its values come from the digital surface, nothing to fill
+    from manifill.solid import digital_surface
+
+    mask = np.ones(shape, dtype=bool)
+    voxels, _, _, _ = digital_surface(mask)
+    assert len(voxels) == mask.sum()
+    k = min(3, len(voxels))
+    r = manifill.reconstruct_volume_mask(mask, voxels[:k], np.arange(1.0, k + 1), method="harmonic")
+    assert np.isfinite(r.values[mask]).all()
+    assert r.values[mask].min() >= 1 - 1e-12 and r.values[mask].max() <= k + 1e-12
+
+
+def test_regression_tiny_coordinates_are_not_called_zero_area(tmp_path, capsys):
+    V, F = icosphere(2)
+    idx = np.arange(0, len(V), 13)
+    for scale in (1e-150, 1e150):
+        write_mesh(tmp_path / "m.ply", scale * V, F)
+        (tmp_path / "s.csv").write_text("vertex,t\n" + "".join(f"{i},{float(V[i, 0])!r}\n" for i in idx))
+        code, out, err = run(capsys, "reconstruct", tmp_path / "m.ply", tmp_path / "s.csv", "-o",
+                             tmp_path / "o.npy", "-q")
+        assert code == 0, err
+        np.testing.assert_allclose(np.load(tmp_path / "o.npy"), manifill.reconstruct(V, F, idx, V[idx, 0]).values,
+                                   rtol=0, atol=1e-10)
+
+
+def test_regression_cli_bad_values_file_is_one_line(tmp_path, capsys):
+    V, F = icosphere(1)
+    write_mesh(tmp_path / "m.ply", V, F)
+    np.savez(tmp_path / "c.npz", idx=np.array([0, 5]), vals=np.array([1 + 2j, 3 + 0j]))
+    code, out, err = run(capsys, "harmonic", tmp_path / "m.ply", tmp_path / "c.npz", "-o", tmp_path / "o.vtu")
+    assert "complex" in assert_usage_error(code, out, err)
+    assert files(tmp_path) == ["c.npz", "m.ply"]

@@ -19,7 +19,8 @@ def case(tmp_path):
     V, F = icosphere(2)
     write_mesh(tmp_path / "m.ply", V, F)
     idx = np.arange(0, len(V), 11)
-    (tmp_path / "s.csv").write_text("vertex,t,u\n" + "".join(f"{i},{float(V[i, 0])!r},{float(V[i, 1])!r}\n" for i in idx))
+    rows = "".join(f"{i},{float(V[i, 0])!r},{float(V[i, 1])!r}\n" for i in idx)
+    (tmp_path / "s.csv").write_text("vertex,t,u\n" + rows)
     return tmp_path
 
 
@@ -113,3 +114,12 @@ def test_a_signal_during_the_write_keeps_the_old_file_and_leaves_no_temporary(tm
     assert err.count("\n") == 1 and "Traceback" not in err and "no output was left half-written" in err
     assert (tmp_path / "out.csv").read_text() == "old result\n"
     assert sorted(os.listdir(tmp_path)) == ["big.ply", "out.csv", "s.csv"]
+
+
+def test_a_name_csv_cannot_hold_is_refused_before_the_work(case, capsys):
+    (case / "q.csv").write_text((case / "s.csv").read_text().replace("vertex,t,u", 'vertex,"a,b",u'))
+    code, out, err = run(capsys, "harmonic", case / "m.ply", case / "q.csv", "-o", case / "o.csv")
+    assert "comma or quote" in assert_usage_error(code, out, err)
+    assert files(case) == ["m.ply", "q.csv", "s.csv"]
+    code, _, _ = run(capsys, "harmonic", case / "m.ply", case / "q.csv", "-o", case / "o.vtu", "-q")
+    assert code == 0  # the same name is fine where the format can hold it

@@ -295,3 +295,31 @@ def test_vti_output_opens_in_pyvista_with_names_and_voxel_positions(tmp_path):
     fields, h, o = read_vti(tmp_path / "g.vti")
     np.testing.assert_array_equal(fields[ODD], field)
     np.testing.assert_array_equal(fields["boundary_mask"], field > 30)
+
+
+def test_volume_results_convert_to_pyvista_and_meshio_and_take_objects():
+    import manifill
+
+    V, F = icosphere(2)
+    idx = np.arange(0, len(V), 9)
+    vals = V[idx, 2]
+    obj = objects(V, F)["pyvista"]
+    r = manifill.reconstruct_volume(obj, None, idx, vals, resolution=16)
+    np.testing.assert_array_equal(r.values, manifill.reconstruct_volume(V, F, idx, vals, resolution=16).values)
+    img = r.to_pyvista(["z"])
+    ijk = np.array([8, 7, 10])
+    pid = img.find_closest_point(r.origin + ijk * r.spacing)
+    np.testing.assert_allclose(img.points[pid], r.origin + ijk * r.spacing)
+    assert img.point_data["z"][pid] == r.values[tuple(ijk)]
+    np.testing.assert_array_equal(np.asarray(img.point_data["boundary_mask"]).reshape(r.mask.shape, order="F"),
+                                  r.fixed)
+    t = manifill.reconstruct_volume(V, F, idx, vals, form="tets")
+    ug, m = t.to_pyvista(["z"]), t.to_meshio(["z"])
+    np.testing.assert_array_equal(ug.point_data["z"], t.values)
+    np.testing.assert_array_equal(m.cells_dict["tetra"], t.TT)
+    # a tetrahedral object goes back in, as pyvista's and as meshio's
+    for solid in (ug, m):
+        np.testing.assert_allclose(manifill.tet_fill(solid, None, np.arange(len(V)), t.values[:len(V)]), t.values,
+                                   atol=1e-10)
+    with pytest.raises(MeshError, match="no tetrahedra"):
+        manifill.tet_fill(obj, None, [0], [1.0])

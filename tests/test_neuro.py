@@ -67,7 +67,7 @@ def test_freesurfer_surface_morph_and_label(brain):
     S = read_samples(d / "lh.thickness", m.V)
     np.testing.assert_array_equal(S.idx, brain["idx"])
     assert S.names == ["thickness"]
-    lines = [f"#!ascii label, from subject x vox2ras=TkReg", str(brain["idx"].size)]
+    lines = ["#!ascii label, from subject x vox2ras=TkReg", str(brain["idx"].size)]
     lines += [f"{i} {x:.3f} {y:.3f} {z:.3f} {v:.6f}" for i, (x, y, z), v in
               zip(brain["idx"], brain["V"][brain["idx"]], brain["sparse"][brain["idx"]])]
     (d / "lh.V1.label").write_text("\n".join(lines) + "\n")

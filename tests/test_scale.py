@@ -341,3 +341,189 @@ def test_far_points_of_a_tiny_mesh_are_reported_not_crashed():
     for s, far in ((1e-200, 1e200), (1e-150, 1e150), (1.0, 1e300)):
         with pytest.raises(SampleError, match=re.escape(f"row 1: {far:.3g} from the nearest vertex")):
             snap_to_vertices(V0 * s, [V0[0] * s, [far, 0.0, 0.0]])
+
+
+# ---------------------------------------------------------------------------
+# solids: voxelisation, tetrahedralisation, the harmonic fill
+# ---------------------------------------------------------------------------
+
+from manifill import gridsolver  # noqa: E402
+from manifill.errors import ResourceError  # noqa: E402
+from manifill.solid import reconstruct_volume, reconstruct_volume_memory, surface_to_points  # noqa: E402
+from manifill.tets import (  # noqa: E402
+    boundary_faces,
+    tet_count,
+    tet_volumes,
+    tetrahedralize,
+    tetrahedralize_memory,
+)
+from manifill.volume import VoxelFill, harmonic_fill, tet_fill  # noqa: E402
+from manifill.voxels import boundary_voxels, voxelize, voxelize_memory  # noqa: E402
+
+_solid_reference = {}
+
+
+def solid_reference(key, make):
+    """``make()`` at unit scale, computed once per key."""
+    if key not in _solid_reference:
+        _solid_reference[key] = make()
+    return _solid_reference[key]
+
+
+def sorted_rows(F):
+    F = np.sort(np.asarray(F), axis=1)
+    return F[np.lexsort(F.T[::-1])]
+
+
+@pytest.mark.parametrize("s", SCALES)
+def test_voxelize_is_scale_free(s):
+    """The same voxels at every scale; the grid's spacing and origin scale by s, the memory estimate not at all."""
+    mask0, h0, o0 = solid_reference("voxelize", lambda: voxelize(V0, F0, 24))
+    mask, h, origin = voxelize(V0 * s, F0, 24)
+    assert np.array_equal(mask, mask0) and 2000 < mask.sum() < mask.size / 2
+    np.testing.assert_allclose(h, h0 * s, rtol=1e-14)
+    np.testing.assert_allclose(origin, o0 * s, rtol=1e-14)
+    for res in (24, 300):  # the band of winding numbers holds at every scale (areas over h^2)
+        assert voxelize_memory(V0 * s, F0, res) == pytest.approx(voxelize_memory(V0, F0, res), rel=1e-9)
+
+
+def test_voxelize_far_from_the_origin():
+    """A solid at 1e9 of size 1 (libigl's winding numbers are single precision) gives the voxels of the same
+    solid at the origin, translated exactly."""
+    shift = np.array([1e9, -2e9, 3e9])
+    W = V0 + shift
+    back = W - shift  # exact
+    mask, h, origin = voxelize(W, F0, 24)
+    mask0, h0, o0 = voxelize(back, F0, 24)
+    assert np.array_equal(mask, mask0) and mask.any()
+    assert np.array_equal(h, h0)
+    np.testing.assert_allclose(origin - shift, o0, rtol=0, atol=1e-6)
+
+
+def voxel_ball(shape=(16, 14, 18)):
+    """An ellipsoid of voxels filling about half of the box, and its boundary voxels."""
+    x = np.indices(shape).T - (np.array(shape) - 1) / 2
+    mask = ((x / (np.array(shape) / 2 - 1)) ** 2).sum(axis=-1).T < 1
+    return mask, boundary_voxels(mask)
+
+
+@pytest.mark.parametrize("solver", ["auto", "amg", "direct"])
+@pytest.mark.parametrize("c", [6, 26])
+@pytest.mark.parametrize("s", SCALES + [1e-300, 1e300])
+def test_harmonic_fill_is_scale_free(monkeypatch, s, c, solver):
+    """Only the ratios of the spacing matter; weights of 1/h^2 in single precision vanish at h = 1e30."""
+    monkeypatch.setattr(gridsolver, "COARSE_MAX", 60)  # several multigrid levels on a small grid
+    mask, fixed = voxel_ball()
+    g = np.random.default_rng(4).standard_normal(mask.shape + (2,))
+    h = np.array([1.0, 2.0, 1.5])
+    ref = solid_reference(("fill", c, solver), lambda: harmonic_fill(mask, fixed, g, spacing=h, connectivity=c,
+                                                                     solver=solver))
+    assert_same(harmonic_fill(mask, fixed, g, spacing=h * s, connectivity=c, solver=solver), ref)
+    fill = VoxelFill(mask, fixed, spacing=h * s, connectivity=c, solver=solver)
+    assert_same(fill.solve(g[..., 0]), ref[..., 0])
+    assert fill.report["spacing"] == (h * s).tolist()  # reported in the user's units
+    if solver != "direct":
+        assert fill.report.get("levels", 2) >= 2 and "fallback" not in fill.report
+
+
+@pytest.mark.parametrize("s", SCALES)
+def test_surface_to_points_is_scale_free(s):
+    """The closest surface point's linear interpolation: a linear field there is its value at the closest point
+    (libigl on the unscaled mesh), the distance scales by s."""
+    rng = np.random.default_rng(6)
+    P = V0[::4] * rng.uniform(0.6, 1.4, (len(V0[::4]), 1)) + rng.normal(0, 0.02, (len(V0[::4]), 3))
+    d2, _, C = igl.point_mesh_squared_distance(P, V0, F0.astype(np.int64))
+    a = np.array([[1.0, -2.0], [0.5, 3.0], [2.0, 1.0]])
+    vals, dist = surface_to_points(V0 * s, F0, V0 @ a, P * s)
+    assert_same(vals, C @ a)
+    np.testing.assert_allclose(dist / s, np.sqrt(d2), rtol=1e-10)
+    one, _ = surface_to_points(V0 * s, F0, V0 @ a[:, 0], P * s)
+    assert_same(one, C @ a[:, 0])
+
+
+# Until reconstruct_volume's memory estimate divides the volume by h**3 scale-free, it overflows (1e150) or
+# divides by zero (1e-150) before anything else runs; the rest of the voxel path is checked there.
+
+@pytest.mark.parametrize("s", [1e-30, 1.0, 1e30, 1e-150, 1e150])
+def test_reconstruct_volume_voxels_is_scale_free(s):
+    ref = solid_reference("rv-voxels", lambda: reconstruct_volume(V0, F0, IDX, VALS, resolution=24))
+    r = reconstruct_volume(V0 * s, F0, IDX, VALS, resolution=24)
+    assert np.array_equal(r.mask, ref.mask) and np.array_equal(r.fixed, ref.fixed)
+    np.testing.assert_allclose(r.spacing, ref.spacing * s, rtol=1e-14)
+    np.testing.assert_allclose(r.origin, ref.origin * s, rtol=1e-14)
+    assert_same(r.values, ref.values)  # NaN outside the same solid
+    assert_same(r.values[r.fixed], ref.values[ref.fixed])
+    assert r.report["boundary_distance_max"] == pytest.approx(ref.report["boundary_distance_max"], rel=1e-9)
+    assert r.report["fill"]["levels"] == ref.report["fill"]["levels"] >= 2
+    assert reconstruct_volume_memory(V0 * s, F0, resolution=24) == pytest.approx(
+        reconstruct_volume_memory(V0, F0, resolution=24), rel=1e-9)
+
+
+@pytest.mark.parametrize("s", SCALES)
+def test_reconstruct_volume_tets_is_scale_free(s):
+    """TetGen meshes V / s (exactly): the surface vertices come back as they were, the tets are positive, the
+    values equal the unscaled ones at the surface, and on the unscaled tet mesh scaled by s everywhere."""
+    ref = solid_reference("rv-tets", lambda: reconstruct_volume(V0, F0, IDX, VALS, form="tets"))
+    r = reconstruct_volume(V0 * s, F0, IDX, VALS, form="tets")
+    n = len(V0)
+    assert np.array_equal(r.TV[:n], V0 * s)
+    assert (tet_volumes(r.TV / s, r.TT) > 0).all()
+    assert np.array_equal(sorted_rows(boundary_faces(r.TT)), sorted_rows(F0))
+    assert abs(len(r.TV) - len(ref.TV)) <= 0.1 * len(ref.TV)
+    assert_same(r.values[:n], ref.values[:n])
+    everywhere = tet_fill(ref.TV * s, ref.TT, np.arange(n), r.values[:n])
+    assert_same(everywhere, ref.values)
+    assert reconstruct_volume_memory(V0 * s, F0, form="tets") == pytest.approx(
+        reconstruct_volume_memory(V0, F0, form="tets"), rel=1e-9)
+
+
+@pytest.mark.parametrize("s", SCALES)
+def test_tetrahedralize_and_its_estimate_are_scale_free(s):
+    """max_volume is in the units of V: scaled by s**3 it gives the mesh of the unscaled bound."""
+    n = len(V0)
+    bounded = abs(math.log10(s)) < 100  # 1e-3 * s**3 is a float
+    mv = 1e-2 * s**3 if bounded else None
+    TV0, TT0 = solid_reference(("tetgen", bounded), lambda: tetrahedralize(V0, F0, max_volume=1e-2 if bounded
+                                                                            else None))
+    TV, TT = tetrahedralize(V0 * s, F0, max_volume=mv)
+    assert np.array_equal(TV[:n], V0 * s) and (tet_volumes(TV / s, TT) > 0).all()
+    assert abs(len(TT) - len(TT0)) <= 0.05 * len(TT0)
+    assert tet_volumes(TV / s, TT).sum() == pytest.approx(tet_volumes(TV0, TT0).sum(), rel=1e-9)
+    ref = 1e-2 if bounded else None
+    assert tet_count(V0 * s, F0, max_volume=mv) == pytest.approx(tet_count(V0, F0, max_volume=ref), abs=1)
+    assert tetrahedralize_memory(V0 * s, F0, max_volume=mv) == pytest.approx(
+        tetrahedralize_memory(V0, F0, max_volume=ref), rel=1e-9)
+
+
+def test_max_volume_beyond_the_floats_of_the_mesh():
+    """A bound larger than the whole solid is no bound; one that is nothing next to it is refused up front."""
+    for bound in (1e300, 5e-324):  # the solid of 1e-150 has a volume of 4e-450: any float bound is beyond it
+        assert tet_count(V0 * 1e-150, F0, max_volume=bound) == tet_count(V0, F0)
+        assert tetrahedralize_memory(V0 * 1e-150, F0, max_volume=bound) == tetrahedralize_memory(V0, F0)
+    assert tet_count(V0 * 1e150, F0, max_volume=1e300) == tet_count(V0, F0, max_volume=4.2e-150)
+    assert tet_count(V0 * 1e150, F0, max_volume=1.0) == 2**62  # 1e-450 of the solid's volume
+    with pytest.raises(ResourceError, match=r"max_volume=1 \(more than 1e308 tets\).*raise max_volume"):
+        tetrahedralize(V0 * 1e150, F0, max_volume=1.0)
+
+
+@pytest.mark.parametrize("weights", ["cotan", "uniform"])
+@pytest.mark.parametrize("s", SCALES + [1e-300, 1e300])
+def test_tet_fill_and_boundary_faces_are_scale_free(s, weights):
+    TV, TT = solid_reference(("tetgen", False), lambda: tetrahedralize(V0, F0))
+    n = len(V0)
+    bc = np.column_stack([field(V0), V0[:, 0]])
+    ref = tet_fill(TV, TT, np.arange(n), bc, weights=weights)
+    assert_same(tet_fill(TV * s, TT, np.arange(n), bc, weights=weights), ref)
+    if weights == "cotan":  # reproduces linear functions on any tet mesh
+        assert_same(ref[:, 1], TV[:, 0], rtol=1e-9)
+    flipped = TT.copy()
+    flipped[::3] = flipped[::3][:, [1, 0, 2, 3]]  # negatively oriented: the faces must be flipped back
+    assert np.array_equal(rotated(boundary_faces(flipped, V=TV * s)), rotated(boundary_faces(TT)))
+
+
+def rotated(F):
+    """Each triangle turned to start at its smallest vertex (the same triangle, the same orientation), sorted."""
+    F = np.asarray(F)
+    k = np.argmin(F, axis=1)
+    F = F[np.arange(len(F))[:, None], (k[:, None] + np.arange(3)) % 3]
+    return F[np.lexsort(F.T[::-1])]

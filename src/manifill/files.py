@@ -9,14 +9,20 @@ notes) never reach the user. A small file whose header claims billions of items 
 the bytes the file has before anything is allocated.
 """
 
+import io
+import logging
 import os
+import traceback
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 
 from .errors import ManifillError, ReadError, WriteError
 
 __all__ = ["atomic_path", "suffix", "reading", "check_count", "check_input_file"]
+
+#: loggers of the parsers that print their notes through handlers of their own
+_PARSER_LOGGERS = ("nibabel",)
 
 def suffix(path, allowed, what):
     """The lower-case extension of ``path``, checked against ``allowed``.
@@ -72,9 +78,16 @@ def reading(path, kind):
     """
     name = Path(path).name
     try:
-        with warnings.catch_warnings():
+        # the parsers' notes go nowhere: warnings, what meshio prints to stderr itself, nibabel's log lines
+        with warnings.catch_warnings(), redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()), \
+                _silent_loggers():
             warnings.simplefilter("ignore")
-            yield
+            try:
+                yield
+            except Exception as exc:
+                # a file the parser left open is closed here, its ResourceWarning ignored, not at a later collection
+                traceback.clear_frames(exc.__traceback__)
+                raise
     except ManifillError:
         raise
     except MemoryError:
@@ -82,6 +95,20 @@ def reading(path, kind):
                         f"file is damaged; check or re-export it") from None
     except Exception as exc:  # noqa: BLE001 - the parsers raise anything (zipfile, struct, meshio, nibabel...)
         raise ReadError(f"{name}: not a readable {kind} ({_one_line(exc)}); check or re-export the file") from None
+
+
+@contextmanager
+def _silent_loggers():
+    """Mute the loggers of parsers that print through handlers of their own (nibabel's header checks)."""
+    loggers = [logging.getLogger(name) for name in _PARSER_LOGGERS]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
 
 
 def _one_line(exc):

@@ -9,7 +9,10 @@ axes until the voxels are nearly cubic (semi-coarsening). Transfers are
 trilinear interpolation and its transpose (full weighting); the smoother is
 damped Jacobi; the coarsest grid is solved exactly by a sparse LU. The cycle is
 symmetric, so plain CG applies. The cycle runs in single precision and CG in
-double, which keeps the result to the requested residual.
+double, which keeps the result to the requested residual. The spacing is first
+divided by a power of two that brings it to about unit size: a common factor of
+all weights does not change the solution, and weights of ``1 / h**2`` for voxels
+of ``1e30`` (or ``1e-30``) would be beyond single precision.
 """
 
 import os
@@ -21,7 +24,7 @@ import scipy.sparse as sp
 from scipy import ndimage
 from scipy.sparse.linalg import splu
 
-from .voxels import stencil_weights, voxel_laplacian
+from .voxels import _unit_spacing, stencil_weights, voxel_laplacian
 
 __all__ = ["GridMultigrid"]
 
@@ -256,6 +259,8 @@ class GridMultigrid:
         The unknown voxels, a subset of ``domain``; the others in ``domain``
         are fixed (Dirichlet).
     spacing : (3,) array_like of float
+        Voxel size per axis, of any magnitude: the operator is built on the
+        spacing divided by a power of two of about its size (the same solution).
     connectivity : {6, 18, 26}
     workers : int, optional
         Threads for the stencil passes (default: up to 4, one per core).
@@ -277,6 +282,8 @@ class GridMultigrid:
         workers = workers or min(os.cpu_count() or 1, 4)
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
         self.shape = domain.shape
+        # weights of about unit size: A and rhs() are the physical ones times one power of four
+        spacing = _unit_spacing(spacing)
         self.fine = _Level(domain, free, spacing, connectivity, np.float64, self._pool)
         self.levels = [_Level(domain, free, spacing, connectivity, np.float32, self._pool)]
         self.axes = []

@@ -31,7 +31,8 @@ from .sampleio import SAMPLE_FORMATS, VALUE_FORMATS, read_samples, write_values
 
 __all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK",
            "RESERVED_NAMES", "read_mesh", "read_mesh_file", "write_mesh", "stored_names", "check_field_names",
-           "format_note", "write_cells", "atomic_path", "read_samples", "write_values", "SAMPLE_FORMATS", "VALUE_FORMATS"]
+           "format_note", "write_cells", "atomic_path", "read_samples", "write_values", "SAMPLE_FORMATS",
+           "VALUE_FORMATS"]
 
 #: 1 where a vertex (or voxel) holds a sample
 SAMPLE_MASK = "sample_mask"
@@ -195,8 +196,37 @@ def read_mesh_file(path):
     V = np.asarray(V, dtype=np.float64)
     if V.ndim == 2 and V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
+    F = np.asarray(F, dtype=np.int64)
+    _check_cells(path, V, F, "face")
     point_data = {str(k): np.asarray(a) for k, a in point_data.items() if np.shape(a)[:1] == (len(V),)}
-    return MeshFile(V, np.asarray(F, dtype=np.int64), point_data, fmt, path)
+    return MeshFile(V, F, point_data, fmt, path)
+
+
+def _check_cells(path, V, C, what):
+    """Refuse points that are not ``(n, 3)`` or cells with a vertex index outside ``0..n-1`` (a damaged file).
+
+    Parameters
+    ----------
+    path : Path
+        The file read (for the message).
+    V : (n, 3) float64 numpy array
+    C : (m, k) int64 numpy array
+    what : str
+        What a cell is (``'face'``, ``'tetrahedron'``).
+
+    Raises
+    ------
+    ReadError
+        Points of another shape, or a cell using a vertex the file does not have.
+    """
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise ReadError(f"{path.name}: the points have shape {V.shape}, not (n, 3); the file is damaged, check it")
+    bad = np.flatnonzero(((C < 0) | (C >= len(V))).any(axis=1)) if C.ndim == 2 else []
+    if len(bad):
+        i = int(bad[0])
+        v = int(C[i][(C[i] < 0) | (C[i] >= len(V))][0])
+        raise ReadError(f"{path.name}: {what} {i} uses vertex {v} but the file has {len(V):,} vertices "
+                        f"(0..{len(V) - 1}); the file is damaged, check it")
 
 
 def read_mesh(path):
@@ -235,6 +265,8 @@ def _read_meshio(path, fmt):
     ext = path.suffix.lower()
     if ext == ".off":
         _check_off_header(path)
+    elif ext == ".ply":
+        _check_ply_header(path)
     with reading(path, f"{fmt.name} mesh"):
         mesh = getattr(meshio, ext[1:]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
         faces = []
@@ -283,6 +315,40 @@ def _check_off_header(path):
     check_count(counts[1], path, "faces", bytes_each=8)
 
 
+#: bytes of one PLY property value in a binary file
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "int64": 8, "uint64": 8,
+              "double": 8, "float64": 8}
+_PLY_END = re.compile(rb"^[ \t\r\v\f]*end_header[ \t\r\v\f]*$", re.M)
+
+
+def _check_ply_header(path):
+    """Reject a PLY file whose header never ends (meshio would wait for it forever) or whose counts lie."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+    except OSError as exc:
+        raise ReadError(f"{path.name}: could not read ({exc})") from None
+    end = _PLY_END.search(head)
+    if end is None:
+        raise ReadError(f"{path.name}: not a readable PLY mesh (no 'end_header' line closes its header); the file "
+                        f"is truncated or damaged, check it")
+    lines = [line.split() for line in head[:end.start()].decode("latin-1").splitlines()]
+    binary = any(w[:1] == ["format"] and len(w) > 1 and w[1].startswith("binary") for w in lines)
+    elements = []  # [name, count, fewest bytes of one]
+    for w in lines:
+        if w[:1] == ["element"] and len(w) >= 3:
+            if not re.fullmatch(r"[0-9]{1,30}", w[2]):
+                raise ReadError(f"{path.name}: the header line 'element {w[1]} {w[2][:40]}' gives no count; the "
+                                f"file is damaged, check it")
+            elements.append([w[1], int(w[2]), 0])
+        elif w[:1] == ["property"] and elements:
+            kind = w[2] if len(w) > 2 and w[1] == "list" else (w[1] if len(w) > 1 else "")
+            elements[-1][2] += _PLY_SIZES.get(kind, 1) if binary else 2
+    for name, n, each in elements:
+        check_count(n, path, f"'{name}' elements", bytes_each=max(each, 1), start=end.end() + 1)
+
+
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
@@ -301,7 +367,8 @@ def check_field_names(names, path=None, *, masks=True):
     ------
     WriteError
         An empty name, a name with a line break or another control character,
-        or a reserved name; the message says how to rename it.
+        a comma or quote for a CSV ``path``, or a reserved name; the message
+        says how to rename it.
     """
     where = f"{Path(path).name}: " if path is not None else ""
     for name in names:
@@ -311,6 +378,9 @@ def check_field_names(names, path=None, *, masks=True):
         if _CONTROL.search(name):
             raise WriteError(f"{where}field name {name!r} holds a line break or control character, which no mesh "
                              f"format can store; rename the value column")
+        if path is not None and Path(path).suffix.lower() == ".csv" and ("," in name or '"' in name):
+            raise WriteError(f"{where}field name {name!r} holds a comma or quote, which a CSV header cannot hold; "
+                             f"rename the value column or write .npy")
         if masks and name in RESERVED_NAMES:
             raise WriteError(f"{where}field name {name!r} is the name of manifill's mask in the output; rename the "
                              f"value column")
@@ -435,7 +505,6 @@ def write_mesh(path, V, F, point_data=None):
     from .meshobj import mesh_arrays
     from .validate import as_mesh
 
-    ext = Path(path).suffix.lower()
     fmt = mesh_format(path, writing=True)
     point_data = dict(point_data or {})
     if point_data and not fmt.fields:

@@ -67,6 +67,7 @@ def _gifti_arrays(path):
     from nibabel.nifti1 import intent_codes
 
     with reading(path, "GIfTI file"):
+        _check_gifti(path)
         img = nib.load(str(path))
         if not isinstance(img, nib.gifti.GiftiImage):
             raise ReadError(f"{Path(path).name}: not a GIfTI image; pass a .gii file")
@@ -76,6 +77,23 @@ def _gifti_arrays(path):
             meta = dict(da.meta) if da.meta is not None else {}
             arrays.append((intent, meta.get("Name") or meta.get("name"), np.asarray(da.data)))
     return arrays
+
+
+def _check_gifti(path):
+    """Refuse a DataArray Dimensionality beyond GIfTI's 6: nibabel counts up to it looking for Dim attributes."""
+    import xml.etree.ElementTree as ET
+
+    for _, elem in ET.iterparse(str(path), events=("start",)):
+        if elem.tag != "DataArray":
+            continue
+        text = elem.get("Dimensionality", "0")
+        try:
+            dims = int(text)
+        except ValueError:
+            continue  # nibabel's own error
+        if dims > 6:
+            raise ReadError(f"{Path(path).name}: a DataArray has Dimensionality {text[:30]!r}, more than GIfTI's 6; "
+                            f"the file is damaged, check it")
 
 
 def read_gifti(path):
@@ -254,7 +272,28 @@ def read_label(path):
     ImportError
         Without nibabel (the ``[neuro]`` extra).
     """
-    nib = _nibabel()
+    _nibabel()
+    name = Path(path).name
     with reading(path, "FreeSurfer label file"):
-        idx, scalars = nib.freesurfer.read_label(str(path), read_scalars=True)
-    return np.asarray(idx, dtype=np.int64), np.asarray(scalars, dtype=np.float64).reshape(-1, 1)
+        with open(path, "rb") as fh:
+            fh.readline()
+            count = fh.readline().strip()
+        # as nibabel.freesurfer.read_label, with the row count and the columns checked (a cut row is not data)
+        table = np.loadtxt(str(path), skiprows=2, ndmin=2, dtype=np.float64)
+    if not count.isdigit() or len(count) > 18:
+        raise ReadError(f"{name}: line 2 is {count[:30].decode('latin-1')!r}, not the number of vertices; check the "
+                        f"file")
+    rows = len(table) if table.size else 0
+    if rows and table.shape[1] != 5:
+        raise ReadError(f"{name}: rows of {table.shape[1]} numbers, not 5 (vertex x y z value); the file is "
+                        f"damaged, check it")
+    if rows != int(count):
+        raise ReadError(f"{name}: the header claims {int(count):,} vertices but {rows:,} rows follow; the file is "
+                        f"truncated or damaged, check it")
+    col = table[:, 0] if rows else np.zeros(0)
+    good = np.isfinite(col) & (np.abs(col) < 2.0**62) & (col == np.round(col))
+    if not good.all():
+        raise ReadError(f"{name}: vertex number {col[~good][0]:g} in row {int(np.flatnonzero(~good)[0]) + 1} is not "
+                        f"an integer vertex index; check the file")
+    table = table.reshape(rows, 5)
+    return table[:, 0].astype(np.int64), table[:, 4:5].copy()

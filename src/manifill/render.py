@@ -13,7 +13,8 @@ import os
 import numpy as np
 
 from .errors import WriteError
-from .viewer import named_fields, choose_field
+from .meshobj import mesh_arrays
+from .viewer import choose_field, named_fields
 
 __all__ = ["render", "render_panels", "render_slices"]
 
@@ -163,6 +164,7 @@ def render(V, F, values, path, *, samples=None, curves=None, title=None, name="v
     ImportError
         Without pyvista.
     """
+    V, F = mesh_arrays(V, F)
     fields = named_fields(values, len(V), names=names, name=name)
     chosen = choose_field(fields, field)
     x = None if chosen is None else fields[chosen]

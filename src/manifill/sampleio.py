@@ -111,6 +111,8 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         from .neuro import read_label
 
         idx, vals = read_label(path)
+        if len(idx) == 0:
+            raise ReadError(f"{path.name}: a label file without vertices; check the file")
         kind, table, names = "vertex", np.column_stack([idx, vals]), [path.name.split(".label")[0]]
     else:
         kind, table, names = _read_vertex_data(path, n)
@@ -124,9 +126,14 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         if not np.all(col == np.round(col)):
             row = int(np.flatnonzero(col != np.round(col))[0])
             raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is not an integer")
-        return Samples.from_indices(col.astype(np.int64), table[:, 1:], n, names=names, duplicates=duplicates)
-    return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
-                               max_distance=max_distance)
+    try:
+        if kind == "vertex":
+            return Samples.from_indices(col.astype(np.int64), table[:, 1:], n, names=names, duplicates=duplicates)
+        return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
+                                   max_distance=max_distance)
+    except SampleError as exc:  # the file's samples are wrong: the message names the file
+        msg = str(exc)
+        raise SampleError(msg if msg.startswith(f"{path.name}:") else f"{path.name}: {msg}") from None
 
 
 def _read_vertex_data(path, n):

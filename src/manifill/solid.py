@@ -26,16 +26,17 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import SampleError
+from .meshobj import mesh_arrays
 from .memory import check_fits
 from .progress import tick
 from .solvers import SOLVERS
 from .reconstruct import Reconstruction, _check_options, _pipeline, _Surface, reconstruct
-from .tets import _check_max_volume, _tet_count, _tet_words, boundary_faces, surface_volume, tetrahedralize
+from .tets import _check_max_volume, _tet_count, _tet_words, boundary_faces, tetrahedralize
 from .tets import tetrahedralize_memory
 from .validate import as_mask, as_mesh, as_samples, as_tets, check_option
 from .volume import _AUTO_DIRECT_MAX, FILL_SOLVERS, VoxelFill, fill_memory, tet_fill, tet_fill_memory
-from .voxels import (_grid_words, _voxelize_memory, as_connectivity, as_origin, as_spacing, boundary_voxels,
-                     neighbour_offsets, voxel_centres, voxel_grid, voxelize)
+from .voxels import (_grid_words, _solid_voxels, _voxelize_memory, as_connectivity, as_origin, as_spacing,
+                     boundary_voxels, neighbour_offsets, voxel_centres, voxel_grid, voxelize)
 
 __all__ = ["FORMS", "VolumeReconstruction", "digital_surface", "reconstruct_volume", "reconstruct_volume_tets",
            "reconstruct_volume_mask", "surface_to_points", "reconstruct_volume_memory"]
@@ -82,6 +83,62 @@ class VolumeReconstruction:
     surface_voxels: np.ndarray = None
     report: dict = field(default_factory=dict)
 
+    def point_data(self, names=None):
+        """The fields and the boundary mask, named as in every output file.
+
+        Parameters
+        ----------
+        names : list of str, optional
+            One name per field (``value``, ``value2``, ... by default).
+
+        Returns
+        -------
+        dict of str to numpy array
+            Voxels: ``(n0, n1, n2)`` arrays; tets: ``(N,)`` arrays.
+        """
+        from .io import BOUNDARY_MASK
+        from .samples import field_names
+
+        X = self.values if self.values.ndim == (4 if self.form == "voxels" else 2) else self.values[..., None]
+        data = dict(zip(field_names(names, X.shape[-1]), np.moveaxis(X, -1, 0)))
+        if self.form == "voxels":
+            data[BOUNDARY_MASK] = self.fixed
+        else:
+            boundary = np.zeros(len(self.TV), dtype=bool)
+            boundary[np.unique(boundary_faces(self.TT))] = True
+            data[BOUNDARY_MASK] = boundary
+        return data
+
+    def to_pyvista(self, names=None):
+        """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).
+
+        Needs the ``[viz]`` extra. Voxel ``(i, j, k)`` is the point at ``origin + (i, j, k) * spacing``.
+        """
+        from .meshobj import to_pyvista
+
+        data = self.point_data(names)
+        if self.form == "tets":
+            return to_pyvista(self.TV, self.TT, data)
+        try:
+            import pyvista as pv
+        except ImportError:
+            raise ImportError("converting to pyvista needs pyvista: pip install 'manifill[viz]'") from None
+        img = pv.ImageData(dimensions=self.mask.shape, spacing=tuple(self.spacing), origin=tuple(self.origin))
+        for name, arr in data.items():
+            arr = np.asarray(arr)
+            arr = arr.astype(np.uint8) if arr.dtype == bool else arr
+            img.point_data[name] = arr.reshape(-1, order="F")  # x fastest, as VTK orders points
+        return img
+
+    def to_meshio(self, names=None):
+        """The tetrahedral solid as a ``meshio.Mesh`` (voxels: use :meth:`to_pyvista` or ``write_vti``)."""
+        from .errors import OptionError
+        from .meshobj import to_meshio
+
+        if self.form != "tets":
+            raise OptionError("a voxel result has no meshio form; use to_pyvista() or manifill.volio.write_vti")
+        return to_meshio(self.TV, self.TT, self.point_data(names))
+
 
 def surface_to_points(V, F, values, P):
     """Values of a surface field at the closest surface point of each query point.
@@ -100,11 +157,26 @@ def surface_to_points(V, F, values, P):
     values : (q,) or (q, p) numpy array
     distance : (q,) numpy array
         From each point to the surface.
+
+    Notes
+    -----
+    The closest points and their barycentric coordinates are computed on
+    ``V / s`` and ``P / s``, ``s`` the power of two of
+    :func:`manifill.validate.unit_scale` (1 for meshes of the usual sizes), and
+    the distances multiplied back by ``s``: squared lengths of a mesh of size
+    ``1e-150`` underflow and of ``1e150`` overflow, their ratios do not.
     """
     import igl
 
-    d2, face, C = igl.point_mesh_squared_distance(np.ascontiguousarray(P, dtype=np.float64),
-                                                  np.ascontiguousarray(V), np.ascontiguousarray(F, dtype=np.int64))
+    from .validate import unit_scale
+
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    s = unit_scale(V)
+    V = V / s  # exact
+    P = np.asarray(P, dtype=np.float64) / s
+    d2, face, C = igl.point_mesh_squared_distance(np.ascontiguousarray(P), np.ascontiguousarray(V),
+                                                  np.ascontiguousarray(F))
     tri = F[face]
     a, b, c = V[tri[:, 0]], V[tri[:, 1]], V[tri[:, 2]]
     # barycentric coordinates of the closest point (which lies on the triangle)
@@ -119,12 +191,12 @@ def surface_to_points(V, F, values, P):
     wb = np.clip((d11 * d20 - d01 * d21) / den, 0, 1)
     wc = np.clip((d00 * d21 - d01 * d20) / den, 0, 1)
     wa = np.clip(1.0 - wb - wc, 0, 1)
-    s = wa + wb + wc
-    w = np.column_stack([wa, wb, wc]) / s[:, None]
+    total = wa + wb + wc
+    w = np.column_stack([wa, wb, wc]) / total[:, None]
     vals = np.asarray(values, dtype=np.float64)
     X = vals[:, None] if vals.ndim == 1 else vals
     out = np.einsum("qk,qkp->qp", w, X[tri])
-    return (out[:, 0] if vals.ndim == 1 else out), np.sqrt(d2)
+    return (out[:, 0] if vals.ndim == 1 else out), np.sqrt(d2) * s
 
 
 def _surface_options(options):
@@ -155,7 +227,7 @@ def _volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solv
         shape, h, _ = voxel_grid(V, resolution)
         voxels, _ = _voxelize_memory(V, F, shape, h)
         N = math.prod(float(c) for c in shape)
-        unknowns = min(N, surface_volume(V, F) / h ** 3)
+        unknowns = min(N, _solid_voxels(V, F, h))
         solver = "multigrid" if fill_solver == "auto" else fill_solver
         # the mask and D are held through the fill; each further field adds its grid of values
         fill = 2.0 * N + fill_memory(shape, unknowns, solver, connectivity) + 8.0 * N * (p - 1)
@@ -280,6 +352,7 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     """
     check_option("form", form, FORMS)
     check_option("fill_solver", fill_solver, FILL_SOLVERS)
+    V, F = mesh_arrays(V, F)
     _surface_options(options)
     # refuse a volume that will not fit before Steps 1-6 on the surface
     check_fits(*_volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solver, _n_fields(vals)))

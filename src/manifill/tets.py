@@ -18,6 +18,11 @@ Which weights when
 
 Unlike the 2D cotangent Laplacian, the 3D stiffness has units of length: scaling
 ``V`` by ``s`` scales ``L`` by ``s`` (the harmonic solution does not change).
+
+Volumes and orientations are computed on the positions divided by
+:func:`~manifill.validate.unit_scale` (a power of two, exact), so solids of size
+``1e-150`` or ``1e150``, whose tet volumes underflow or overflow, are
+tetrahedralised and oriented like unit ones.
 """
 
 import numbers
@@ -28,10 +33,10 @@ import tempfile
 
 import numpy as np
 
-from .errors import MeshError, OptionError
+from .errors import MeshError, OptionError, ResourceError
 from .memory import check_fits
 from .topology import EdgeIndex, edges
-from .validate import _as_faces, as_mesh, as_tets, bbox_diagonal, check_option
+from .validate import _as_faces, as_mesh, as_tets, bbox_diagonal, check_option, unit_scale
 
 __all__ = ["tet_laplacian", "boundary_faces", "tet_volumes", "tetrahedralize", "surface_volume", "tet_count",
            "tetrahedralize_memory"]
@@ -48,6 +53,11 @@ def _volumes(V, T):
     """Signed volumes of validated arrays: positive when ``(b-a, c-a, d-a)`` is right-handed."""
     a = V[T[:, 0]]
     return np.einsum("ij,ij->i", np.cross(V[T[:, 1]] - a, V[T[:, 2]] - a), V[T[:, 3]] - a) / 6.0
+
+
+def _negative(V, T):
+    """Which tets of validated arrays are negatively oriented, at any scale (volumes of ``V / unit_scale(V)``)."""
+    return _volumes(V / unit_scale(V), T) < 0
 
 
 def tet_volumes(V, T):
@@ -217,7 +227,7 @@ def boundary_faces(T, *, V=None):
         flip = np.zeros(len(T), dtype=bool)
     else:
         V, T = as_tets(V, T, allow_degenerate=True, allow_unreferenced=True)
-        flip = _volumes(V, T) < 0
+        flip = _negative(V, T)
     faces = T[:, _OUTWARD]  # (m, 4, 3)
     faces[flip] = faces[flip][:, :, [0, 2, 1]]
     faces = faces.reshape(-1, 3)
@@ -271,8 +281,20 @@ def surface_volume(V, F):
     4.18
     """
     V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
-    P = V - V.mean(axis=0) if len(V) else V  # centred: no cancellation for a far origin
-    return float(abs(np.einsum("ij,ij->i", P[F[:, 0]], np.cross(P[F[:, 1]], P[F[:, 2]])).sum()) / 6.0)
+    vol, s = _unit_volume(V, F)
+    return vol * s * s * s  # inf only when the volume itself overflows
+
+
+def _unit_volume(V, F):
+    """``(vol, s)``: the volume enclosed by validated arrays is ``vol * s**3``, ``vol`` computed on ``V / s``.
+
+    ``s`` is :func:`~manifill.validate.unit_scale` of ``V`` (1 for the usual
+    sizes), so the triple products neither overflow nor underflow.
+    """
+    s = unit_scale(V)
+    P = V / s
+    P = P - P.mean(axis=0) if len(P) else P  # centred: no cancellation for a far origin
+    return float(abs(np.einsum("ij,ij->i", P[F[:, 0]], np.cross(P[F[:, 1]], P[F[:, 2]])).sum()) / 6.0), s
 
 
 #: Tets per ``volume / max_volume`` (tetgen makes them smaller than the bound: 1.45 measured with ``-q``),
@@ -291,9 +313,24 @@ def _check_max_volume(max_volume):
 def _tet_count(V, F, max_volume):
     """:func:`tet_count` on validated arrays, as a float (may exceed any int)."""
     surface = _TETS_PER_FACE * len(F)
-    if max_volume is None:
+    bound, s = _unit_bound(V, max_volume)
+    if bound is None:
         return surface
-    return _TETS_PER_BOUND * surface_volume(V, F) / float(max_volume) + surface
+    vol = _unit_volume(V, F)[0]
+    return _TETS_PER_BOUND * vol / bound + surface if bound > 0 else np.inf
+
+
+def _unit_bound(V, max_volume):
+    """``(bound, s)``: ``max_volume`` in units of ``s**3``, ``s`` the :func:`~manifill.validate.unit_scale` of ``V``.
+
+    ``None`` without a bound, or when the bound is beyond any tet of the solid
+    (it overflows in those units); 0 when it underflows (no tet is that small).
+    """
+    s = unit_scale(V)
+    if max_volume is None:
+        return None, s
+    bound = float(max_volume) / s / s / s  # in three steps: s**3 itself overflows for s = 2**400
+    return (None if bound == np.inf else bound), s
 
 
 def tet_count(V, F, *, max_volume=None):
@@ -353,8 +390,8 @@ def tetrahedralize_memory(V, F, *, max_volume=None):
 
 def _tet_words(max_volume, tets):
     bound = "no max_volume" if max_volume is None else f"max_volume={float(max_volume):g}"
-    count = f"{tets:,.0f}" if tets < 1e15 else f"{tets:.2g}"
-    return f"tetrahedralising with {bound} (~{count} tets)"
+    count = f"~{tets:,.0f}" if tets < 1e15 else f"~{tets:.2g}" if tets < np.inf else "more than 1e308"
+    return f"tetrahedralising with {bound} ({count} tets)"
 
 
 def tetrahedralize(V, F, *, max_volume=None, quality=True):
@@ -396,13 +433,19 @@ def tetrahedralize(V, F, *, max_volume=None, quality=True):
         If ``max_volume`` is not a positive number.
     ResourceError
         If the mesh is predicted not to fit in the memory available
-        (:func:`tetrahedralize_memory`); checked before tetgen starts.
+        (:func:`tetrahedralize_memory`), or ``max_volume`` is so small next to
+        the solid that the count of tets overflows; checked before tetgen starts.
 
     Notes
     -----
     tetgen runs in a child process in a temporary directory (a fraction of a
     second more per call): on bad input it can abort the interpreter and leave
     files in the working directory, and this way it can do neither.
+
+    tetgen gets ``V / s`` and ``max_volume / s**3``, ``s`` the power of two of
+    :func:`~manifill.validate.unit_scale` (1 for the usual sizes), and its
+    points are multiplied back by ``s``: exact, so solids of size ``1e-150`` or
+    ``1e150`` are meshed like unit ones and still keep their vertices bit for bit.
 
     Examples
     --------
@@ -426,14 +469,20 @@ def tetrahedralize(V, F, *, max_volume=None, quality=True):
         raise MeshError(f"the surface has {holes} boundary edges, so it encloses no solid; close the holes "
                         f"(fill them with triangles) and try again")
     tets = _tet_count(V, F, max_volume)
+    if tets == np.inf:  # a bound that is nothing next to the solid (1 for a solid of 1e150), whatever the memory
+        raise ResourceError(f"{_tet_words(max_volume, tets)} needs more memory than any machine has; raise "
+                            f"max_volume to a fraction of the solid's volume (CLI --max-volume)")
     check_fits(_TET_BYTES * tets + 200.0 * len(F) + 1e6, _tet_words(max_volume, tets),
                "raise max_volume (CLI --max-volume)")
     # p: the surface bounds the solid, Y: no points added on it, M: no merged facets (not quiet: its
     # error lines are the message)
-    switches = "pYM" + ("q" if quality else "") + ("" if max_volume is None else f"a{float(max_volume):.17g}")
+    # tetgen works on V / s, s a power of two (1 for the usual sizes): exact, and of about unit size, where
+    # its tolerances hold (at 1e-150 it finds every point collinear, at 1e150 it fails); the bound in units of s**3
+    bound, s = _unit_bound(V, max_volume)
+    switches = "pYM" + ("q" if quality else "") + ("" if bound is None else f"a{bound:.17g}")
     where = os.path.dirname(os.path.dirname(os.path.abspath(tetgen.__file__)))
     with tempfile.TemporaryDirectory(prefix="manifill-tetgen-") as tmp:
-        np.savez(os.path.join(tmp, "in.npz"), V=V, F=F)
+        np.savez(os.path.join(tmp, "in.npz"), V=V / s, F=F)
         proc = subprocess.run([sys.executable, "-c", _CHILD, switches, where],
                               cwd=tmp, capture_output=True, text=True, errors="replace", check=False)
         out = os.path.join(tmp, "out.npz")
@@ -443,9 +492,10 @@ def tetrahedralize(V, F, *, max_volume=None, quality=True):
         with np.load(out) as data:
             TV, TT = data["TV"].astype(np.float64), data["TT"].astype(np.int64)
     n = len(V)
+    neg = _volumes(TV, TT) < 0  # on the unit-size positions: the volumes of tets of 1e-150 underflow
+    TV = TV * s  # exact: TV[:n] is V again when tetgen kept the surface vertices
     if len(TV) < n or not np.array_equal(TV[:n], V) or len(TT) == 0:
         raise MeshError("tetgen moved or dropped surface vertices; check the surface for self-intersections")
-    neg = _volumes(TV, TT) < 0
     TT[neg] = TT[neg][:, [0, 1, 3, 2]]
     got = np.sort(boundary_faces(TT), axis=1)
     want = np.sort(F, axis=1)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ReadError, WriteError
-from .io import _meshio_read, _suffix, atomic_path
+from .io import _check_cells, _meshio_read, _suffix, atomic_path
 from .vtkxml import _grid_arrays, read_imagedata, write_imagedata
 
 __all__ = ["TET_FORMATS", "GRID_FORMATS", "read_tets", "write_tets", "write_vti", "read_vti", "read_mask"]
@@ -61,7 +61,10 @@ def read_tets(path):
     if not tets:
         kinds = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
         raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
-    return np.asarray(mesh.points, dtype=np.float64)[:, :3], np.concatenate(tets).astype(np.int64)
+    V = np.asarray(mesh.points, dtype=np.float64)
+    T = np.concatenate(tets).astype(np.int64)
+    _check_cells(path, V[:, :3] if V.ndim == 2 else V, T, "tetrahedron")
+    return V[:, :3], T
 
 
 def has_tets(path):
@@ -191,10 +194,9 @@ def read_mask(path, *, field=None):
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
     if ext == ".npy":
-        try:
-            arr = np.load(path, allow_pickle=False)
-        except (ValueError, OSError) as exc:
-            raise ReadError(f"{path.name}: not a readable .npy array ({exc}); check the file") from None
+        from .sampleio import _load_npy
+
+        arr = _load_npy(path)  # the header checked against the file's size first
         spacing = origin = None
     else:
         fields, spacing, origin = read_vti(path)
@@ -203,7 +205,8 @@ def read_mask(path, *, field=None):
             raise ReadError(f"{path.name}: holds fields {', '.join(fields) or '(none)'}; name the mask with "
                             f"--mask-field")
         arr = fields[name]
-    if arr.ndim != 3 or not (arr.dtype == bool or np.isin(arr, (0, 1)).all()):
+    if arr.ndim != 3 or arr.size == 0 or not (arr.dtype == bool or (arr.dtype.kind in "iuf"
+                                                                   and np.isin(arr, (0, 1)).all())):
         raise ReadError(f"{path.name}: not a 3-D mask of 0 and 1 (shape {arr.shape}, dtype {arr.dtype}); "
                         f"pass a boolean voxel array")
     return arr.astype(bool), spacing, origin

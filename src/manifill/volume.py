@@ -23,8 +23,8 @@ from .harmonic import ON_EMPTY, HarmonicSolver
 from .solvers import SOLVERS
 from .memory import check_fits, lu_memory
 from .tets import tet_laplacian
-from .validate import as_indices, as_mask, as_values, as_tets, check_option
-from .voxels import as_connectivity, as_spacing, voxel_components, voxel_laplacian
+from .validate import as_indices, as_mask, as_values, as_tets, check_option, unit_scale
+from .voxels import _unit_spacing, as_connectivity, as_spacing, voxel_components, voxel_laplacian
 
 __all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory", "tet_fill_memory"]
 
@@ -112,7 +112,8 @@ class VoxelFill:
     fixed : (n0, n1, n2) bool array_like
         Voxels whose values are given, inside ``mask``.
     spacing : (3,) array_like of float, optional
-        Voxel size along each axis.
+        Voxel size along each axis, of any magnitude (only the ratios of the
+        axes change the result).
     connectivity : {6, 18, 26}, optional
         Face, edge or corner neighbours (:mod:`manifill.voxels`).
     solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
@@ -216,7 +217,9 @@ class VoxelFill:
             check_fits(fill_memory(self.mask.shape, unknowns, solver, self.connectivity),
                        f"the harmonic fill of {unknowns:,} voxels ({solver})",
                        "lower the resolution (CLI --resolution) or crop the grid to the solid")
-            L = voxel_laplacian(solid, self.spacing, self.connectivity)
+            # the spacing brought to about unit size: the same solution, weights that neither
+            # overflow nor underflow for voxels of 1e-150 or 1e150
+            L = voxel_laplacian(solid, _unit_spacing(self.spacing), self.connectivity)
             b = np.flatnonzero(self.fixed[solid])
             self._hs = HarmonicSolver.from_laplacian(L, b, solver=solver, tol=self._tol_arg,
                                                      maxiter=self._maxiter_arg, symmetric_pattern=True)
@@ -369,6 +372,8 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
     check_fits(tet_fill_memory(len(V), len(T), n_fixed, solver), f"the harmonic fill of {free:,} tet vertices "
                f"({solver})", f"use solver='amg' (CLI --fill-solver amg) or {coarser}" if factorised
                else f"use {coarser}")
-    L = tet_laplacian(V, T, weights=weights)
+    # the stiffness has units of length: on V / s (s a power of two, 1 for the usual sizes) it is the
+    # same matrix divided by s, exactly, with the same solution and entries of about unit size
+    L = tet_laplacian(V / unit_scale(V), T, weights=weights)
     return HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
                                          symmetric_pattern=True).solve(bc)

@@ -33,6 +33,7 @@ import scipy.sparse as sp
 
 from .errors import MeshError, OptionError, ResourceError, SampleError
 from .memory import check_fits
+from .validate import unit_scale
 
 __all__ = [
     "CONNECTIVITY",
@@ -153,6 +154,19 @@ def stencil_weights(spacing=(1.0, 1.0, 1.0), connectivity=6):
     axis = np.argmax(D[face] != 0, axis=1)
     w[face] = (target - moment[axis]) / (2.0 * h[axis] ** 2)
     return D, w
+
+
+def _unit_spacing(spacing):
+    """``spacing`` divided by a power of two that brings it to about unit size (unchanged in the usual range).
+
+    The stencil weights are homogeneous of degree -2 in the spacing, so this
+    multiplies every weight by the same power of four, exactly, and leaves the
+    harmonic solution as it is; but ``1 / h**2`` of a spacing of ``1e30`` (or
+    ``1e-30``) is beyond single precision, which the multigrid cycle runs in,
+    and of ``1e160`` beyond double. See :func:`manifill.validate.unit_scale`.
+    """
+    h = as_spacing(spacing)
+    return h / unit_scale(h[None])
 
 
 def _shifted(a, d):
@@ -280,7 +294,12 @@ def voxel_centres(shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), where=
 
 
 def _surface_band(V, F, shape, h, origin):
-    """Voxels within one voxel of the surface: points spread over every triangle at most h/2 apart, dilated."""
+    """Voxels within one voxel of the surface: points spread over every triangle at most h/2 apart, dilated.
+
+    Lengths are squared: pass positions of about unit size (``V``, ``h`` and
+    ``origin`` divided by :func:`~manifill.validate.unit_scale`), which gives
+    the same band.
+    """
     band = np.zeros(shape, dtype=bool)
     A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     longest = np.sqrt(np.maximum.reduce([((B - A) ** 2).sum(1), ((C - B) ** 2).sum(1), ((A - C) ** 2).sum(1)]))
@@ -402,10 +421,25 @@ def _surface_area(V, F):
 
 def _voxelize_memory(V, F, shape, h):
     """:func:`voxelize_memory` on validated arrays and a chosen grid: (bytes, band voxels)."""
+    s = unit_scale(V)  # areas and squared lengths of a mesh of size 1e150 overflow; their ratios to h do not
+    V, h = V / s, h / s
     N = float(np.prod(np.array(shape, dtype=np.float64)))
     band = min(N, _BAND_THICKNESS * _surface_area(V, F) / h ** 2 + 27.0)
     spread = _VOX_FACE * len(F) + _VOX_POINT * _band_points(V, F, h) + 3.0 * N
     return _VOX_FIXED + max(spread, _VOX_GRID * N, 6.0 * N + _VOX_BAND * band), band
+
+
+def _solid_voxels(V, F, h):
+    """Voxels of size ``h`` in the volume that validated arrays enclose, at any scale.
+
+    ``surface_volume(V, F) / h**3`` (:func:`manifill.tets.surface_volume`) with
+    both on ``V / unit_scale(V)``: for a mesh of size ``1e150`` the volume and
+    ``h**3`` overflow, for ``1e-150`` they underflow, their ratio does neither.
+    """
+    from .tets import _unit_volume
+
+    vol, s = _unit_volume(V, F)
+    return vol / (h / s) ** 3
 
 
 def voxelize_memory(V, F, resolution=128, *, padding=1):
@@ -456,6 +490,22 @@ def _grid_words(resolution, shape):
     return f"resolution {resolution} (grid {' x '.join(str(c) for c in shape)}, {total:,} voxels)"
 
 
+def _exact_shift(V, Q):
+    """A translation ``c`` (per axis the centre of the box of ``V`` and ``Q``, or 0) that is exact for both.
+
+    libigl's winding numbers work in single precision, so a solid far from the
+    origin (a box at 1e9 of size 1) loses its inside. Along an axis where every
+    coordinate lies within a factor 2 of the centre, subtracting the centre is
+    exact (Sterbenz), so the translated solid is the same solid; elsewhere (a
+    box around the origin, the usual case) nothing is subtracted.
+    """
+    X = np.concatenate([V, Q])
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    c = (lo + hi) / 2
+    ok = np.where(c > 0, (lo >= c / 2) & (hi <= 2 * c), (hi <= c / 2) & (lo >= 2 * c)) & np.isfinite(c)
+    return np.where(ok, c, 0.0)
+
+
 def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     """Voxelise the solid bounded by a closed triangle mesh.
 
@@ -498,6 +548,13 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
         (:func:`voxelize_memory`); checked before anything grid-sized is made.
     ImportError
         Without libigl (``pip install 'manifill[volume]'``).
+
+    Notes
+    -----
+    The winding numbers are evaluated on the positions divided by
+    :func:`~manifill.validate.unit_scale` (exact) and, along the axes where it
+    is exact, moved to the origin, so a solid of size ``1e-150`` or ``1e150``,
+    or one far from the origin, gives the voxels of the same solid at unit size.
     """
     from .topology import edges
     from .validate import as_mesh
@@ -518,8 +575,11 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     except ImportError:
         raise ImportError("voxelize needs libigl for winding numbers: pip install 'manifill[volume]'") from None
     # the winding number is constant away from the surface: evaluate it in a band of voxels
-    # around the surface, and once per connected region of the voxels outside the band
-    band = _surface_band(V, F, shape, h, origin)
+    # around the surface, and once per connected region of the voxels outside the band.
+    # Positions of about unit size (libigl's winding numbers vanish for a mesh of size 1e30 and
+    # crash at 1e150); dividing by the power of two s is exact, so the band and mask do not change
+    s = unit_scale(V)
+    band = _surface_band(V / s, F, shape, h / s, origin / s)
     from scipy import ndimage
 
     labels, count = ndimage.label(~band)
@@ -529,7 +589,9 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     first[flat[order[::-1]]] = order[::-1]  # the first voxel of every region
     where = np.concatenate([np.flatnonzero(band.ravel()), first[1:]])
     Q = origin + np.column_stack(np.unravel_index(where, shape)) * h
-    wn = igl.fast_winding_number(np.ascontiguousarray(V), np.ascontiguousarray(F, dtype=np.int64), Q)
+    c = _exact_shift(V, Q)
+    wn = igl.fast_winding_number(np.ascontiguousarray((V - c) / s), np.ascontiguousarray(F, dtype=np.int64),
+                                 np.ascontiguousarray((Q - c) / s))
     inside = np.abs(wn) >= 0.5
     nb = int(band.sum())
     region_inside = np.concatenate([[False], inside[nb:]])

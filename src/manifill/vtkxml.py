@@ -693,7 +693,7 @@ def _write_cells(path, kind, V, C, arrays):
                     _write_array(fh, key, arr, arr.shape[1], ind)
                 fh.write("      </PointData>\n      <Points>\n")
                 _write_array(fh, "Points", V, 3, ind)
-                fh.write("      </Points>\n      <Polys>\n" if kind == "PolyData" else "      </Points>\n      <Cells>\n")
+                fh.write("      </Points>\n      " + ("<Polys>\n" if kind == "PolyData" else "<Cells>\n"))
                 _write_array(fh, "connectivity", C.astype(np.int64), 1, ind)
                 _write_array(fh, "offsets", width * np.arange(1, m + 1, dtype=np.int64), 1, ind)
                 if kind == "PolyData":

@@ -250,3 +250,139 @@ def test_unknown_method_raises():
     V, F = grid(3)
     with pytest.raises(OptionError):
         curve_values(V, np.array(sorted(edge_set(F))), np.array([0, 8]), np.array([0.0, 1.0]), method="spline")
+
+
+# ---------------------------------------------------------------------------
+# hermite: quadratic precision where the slopes are exact
+# ---------------------------------------------------------------------------
+#
+# Along a straight path of length L, cubic Hermite interpolation in arc length with exact end slopes
+# reproduces any cubic, so any quadratic field of the plane; linear interpolation misses a quadratic
+# c2 s^2 by c2 s (L - s), c2 L^2 / 4 at the middle. The slopes come from least-squares gradients of
+# the samples within two curve steps (normals agreeing: every one on a flat mesh), so they are exact
+#   - with eight or more well-spread such samples (the quadratic fit, exact on a quadratic), and
+#   - on a line of equally spaced samples, at a sample with two on either side (the linear fit: the
+#     quadratic term is even in the offset and drops out of the weighted normal equations),
+# provided no end slope is cut by the cap (twice the steepest secant at that sample).
+
+
+def quadratic_field(c):
+    """The quadratic c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 and its gradient."""
+    def f(X):
+        x, y = X[:, 0], X[:, 1]
+        return c[0] + c[1] * x + c[2] * y + c[3] * x * x + c[4] * x * y + c[5] * y * y
+
+    def grad(X):
+        x, y = X[:, 0], X[:, 1]
+        return np.column_stack([c[1] + 2 * c[3] * x + c[4] * y, c[2] + c[4] * x + 2 * c[5] * y, 0 * x])
+
+    return f, grad
+
+
+QUADRATICS = {
+    "general": (0.3, 2.0, -1.5, 0.8, -0.6, 0.5),
+    "saddle": (1.0, 1.0, 1.0, 1.0, 0.0, -1.0),
+    "xy": (0.0, 1.5, -0.5, 0.0, 2.0, 0.0),
+}
+
+
+def two_step_samples(idx, ends):
+    """For every sample, the set of other samples within two curve steps."""
+    pos = {int(v): i for i, v in enumerate(idx)}
+    A = [set() for _ in idx]
+    for a, b in ends.tolist():
+        A[pos[a]].add(pos[b])
+        A[pos[b]].add(pos[a])
+    return [(A[i] | {j for m in A[i] for j in A[m]}) - {i} for i in range(len(idx))]
+
+
+def slopes_within_cap(V, idx, curves, ends, f, grad):
+    """No exact end slope exceeds twice the steepest secant of the curves at that sample."""
+    pos = {int(v): i for i, v in enumerate(idx)}
+    steep = np.zeros(len(idx))
+    for c, (a, b) in zip(curves, ends.tolist()):
+        secant = abs(f(V[[b]])[0] - f(V[[a]])[0]) / np.linalg.norm(V[c[-1]] - V[c[0]])
+        steep[pos[a]] = max(steep[pos[a]], secant)
+        steep[pos[b]] = max(steep[pos[b]], secant)
+    for c, (a, b) in zip(curves, ends.tolist()):
+        t = (V[c[-1]] - V[c[0]]) / np.linalg.norm(V[c[-1]] - V[c[0]])
+        for v in (a, b):
+            if abs(grad(V[[v]])[0] @ t) > 2 * steep[pos[v]] * (1 - 1e-9):
+                return False
+    return True
+
+
+def quadratic_rank(D):
+    """Rank of the quadratic fit's design (dx, dy, dx^2, dx dy, dy^2) for planar offsets D."""
+    x, y = D[:, 0], D[:, 1]
+    return np.linalg.matrix_rank(np.column_stack([x, y, x * x, x * y, y * y]))
+
+
+# (grid size, sample spacing in grid steps): lattices of samples whose Delaunay network gives every
+# sample eight others within two steps
+LATTICES = [(15, 7), (21, 5)]
+
+
+@pytest.mark.parametrize("field", sorted(QUADRATICS))
+@pytest.mark.parametrize("n, step", LATTICES)
+def test_hermite_reproduces_a_quadratic_where_the_gradient_fits_are_quadratic(n, step, field):
+    V, F = shapes_grid(n)
+    idx = np.sort([j * n + i for i in range(0, n, step) for j in range(0, n, step)])
+    part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method="delaunay")
+    f, grad = quadratic_field(QUADRATICS[field])
+    assert all(straight(V, c) for c in part.curves), "precondition: straight paths"
+    near = two_step_samples(idx, part.ends)
+    assert min(len(s) for s in near) >= 8, "precondition: quadratic gradient fits"
+    assert all(quadratic_rank(V[idx[sorted(s)]] - V[idx[i]]) == 5 for i, s in enumerate(near)), \
+        "precondition: the neighbours determine a quadratic"
+    assert slopes_within_cap(V, idx, part.curves, part.ends, f, grad), "precondition: no slope capped"
+    E = part.curve_edges()
+    cv, x = curve_values(V, E, idx, f(V[idx]), method="hermite", F=F, curves=part.curves, ends=part.ends)
+    _, lin = curve_values(V, E, idx, f(V[idx]), method="linear")
+    exact = f(V[cv])
+    np.testing.assert_allclose(x, exact, rtol=0, atol=1e-10)
+    # linear interpolation misses the quadratic (by c2 s (L - s) along each path), so the two differ
+    interior = ~np.isin(cv, idx)
+    assert np.abs(lin - exact)[interior].max() > 0.01
+    assert np.abs(x - lin)[interior].max() > 0.01
+
+
+@hsettings
+@given(seed=st.integers(0, 10**6), m=st.integers(6, 11), q=st.integers(2, 6), h=st.floats(0.05, 3.0),
+       c2=st.floats(0.2, 2.0), sign=st.sampled_from([-1.0, 1.0]))
+def test_hermite_reproduces_a_quadratic_between_equally_spaced_samples_on_a_line(seed, m, q, h, c2, sign):
+    # m samples, q edges apart, on a straight line in space; the field is quadratic in arc length
+    rng = np.random.default_rng(seed)
+    d = rng.standard_normal(3)
+    d /= np.linalg.norm(d)
+    normal = np.cross(d, rng.standard_normal(3))
+    normal /= np.linalg.norm(normal)
+    nv = (m - 1) * q + 1
+    s = h * np.arange(nv)
+    label = rng.permutation(nv)  # line position j is vertex label[j]
+    V = np.empty((nv, 3))
+    V[label] = rng.uniform(-5, 5, 3) + s[:, None] * d
+    c0, c1, c2 = rng.uniform(-2, 2), rng.uniform(-2, 2), sign * c2
+    field = c0 + c1 * s + c2 * s**2
+    at = np.arange(0, nv, q)  # line positions of the samples
+    idx = label[at]
+    order = np.argsort(idx)
+    curves = [label[at[i]:at[i + 1] + 1] for i in range(m - 1)]
+    ends = np.array([[c[0], c[-1]] for c in curves])
+    edges = np.column_stack([label[:-1], label[1:]])
+    normals = np.tile(normal, (nv, 1))
+    cv, x = curve_values(V, edges, idx[order], field[at][order], method="hermite", curves=curves, ends=ends,
+                         normals=normals)
+    _, lin = curve_values(V, edges, idx[order], field[at][order], method="linear")
+    np.testing.assert_array_equal(cv, np.arange(nv))
+    tol = 1e-9 * np.abs(field).max()
+    # exact on the paths between samples with two others on either side; linear is off by c2 s (L - s)
+    inner = np.arange(2 * q, (m - 3) * q + 1)
+    np.testing.assert_allclose(x[label[inner]], field[inner], rtol=0, atol=tol)
+    L = q * h
+    off = s[inner] - s[inner // q * q]  # arc length from the path's start
+    np.testing.assert_allclose(lin[label[inner]] - x[label[inner]], c2 * off * (L - off), rtol=0, atol=tol)
+    # a linear field: both exact on every path, so equal
+    _, xl = curve_values(V, edges, idx[order], (c0 + c1 * s[at])[order], method="hermite", curves=curves,
+                         ends=ends, normals=normals)
+    np.testing.assert_allclose(xl[label], c0 + c1 * s, rtol=0, atol=1e-9 * (abs(c0) + abs(c1) * s.max()))

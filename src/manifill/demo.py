@@ -137,7 +137,7 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
         ),
         "  (relative RMSE: RMSE over the unfixed vertices divided by the range of f)",
         f"  wrote {', '.join(str(f) for f in files)}",
-        f"  try: manifill reconstruct {files[1]} {files[2]} -o {out / 'mine.ply'}",
+        f"  try: manifill reconstruct {files[1]} {files[2]} -o {out / 'mine.vtu'}",
     ]
     try:
         figures = paper_figures(out)

@@ -323,3 +323,11 @@ def test_volume_results_convert_to_pyvista_and_meshio_and_take_objects():
                                    atol=1e-10)
     with pytest.raises(MeshError, match="no tetrahedra"):
         manifill.tet_fill(obj, None, [0], [1.0])
+
+
+def test_gmsh_output_prints_nothing(tmp_path, capfd):
+    from manifill.volio import write_tets
+
+    V, T = tet_cube()
+    write_tets(tmp_path / "t.msh", V, T, {"t": V[:, 0]})
+    assert capfd.readouterr() == ("", "")

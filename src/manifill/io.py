@@ -576,9 +576,13 @@ def _write_meshio(path, V, cells, point_data, fmt):
     mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), cells, point_data=point_data)
     with atomic_path(path) as tmp:
         try:
+            import contextlib
+            import io
             import warnings
 
-            with warnings.catch_warnings():
+            # meshio prints its notes (e.g. Gmsh's "Appending zeros") itself: they never reach the user
+            with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
+                    contextlib.redirect_stderr(io.StringIO()):
                 warnings.simplefilter("ignore")
                 meshio.write(tmp, mesh, file_format=fmt)
         except (meshio.WriteError, ValueError, KeyError, TypeError, OSError) as exc:

@@ -228,6 +228,7 @@ def read_vertex_data(path, n):
         values = np.column_stack(cols)
     elif ext in (".mgh", ".mgz", ".mgh.gz"):
         with reading(path, "MGH/MGZ file"):
+            _check_mgh(path, compressed=ext != ".mgh")
             values = np.asarray(nib.load(str(path)).get_fdata())
         if values.ndim < 1 or values.shape[0] != n or int(np.prod(values.shape[1:3])) != 1:
             raise ReadError(f"{name}: data of shape {values.shape}, not ({n:,}, 1, 1[, t]) for the mesh's {n:,} "
@@ -251,6 +252,30 @@ def read_vertex_data(path, n):
     if np.iscomplexobj(values) or not np.issubdtype(values.dtype, np.number):
         raise ReadError(f"{name}: the data is {values.dtype}, not real numbers; pass real-valued data")
     return np.asarray(values, dtype=np.float64), names
+
+
+#: bytes per value of the MGH data types nibabel reads (uchar, int, float, short, ushort)
+_MGH_SIZES = {0: 1, 1: 4, 3: 4, 4: 2, 10: 2}
+_MGH_DATA = 284  # where the values start
+_GZIP_RATIO = 1032  # deflate never expands data more than this
+
+
+def _check_mgh(path, compressed):
+    """Refuse MGH dimensions that the file cannot hold: nibabel allocates for them before reading."""
+    import gzip
+    import os
+
+    with (gzip.open if compressed else open)(path, "rb") as fh:
+        head = fh.read(24)
+    if len(head) < 24:
+        return  # nibabel says what is missing
+    _, *dims, code = np.frombuffer(head, dtype=">i4").tolist()
+    count = int(np.prod(dims, dtype=object))
+    size = os.path.getsize(path)
+    room = size * _GZIP_RATIO if compressed else size - _MGH_DATA
+    if min(dims) < 0 or count * _MGH_SIZES.get(code, 1) > room:
+        raise ReadError(f"{Path(path).name}: the header claims {' x '.join(map(str, dims))} values but the file has "
+                        f"only {size:,} bytes; it is truncated or damaged, check it")
 
 
 def read_label(path):

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ReadError, SampleError, WriteError
+from .errors import MeshError, ReadError, SampleError, WriteError
 from .files import atomic_path, check_input_file, reading, suffix
 from .samples import Samples, field_names
 
@@ -96,6 +96,8 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
     SampleError
         Out-of-range indices, NaN values, far-away positions ("wrong units?"),
         conflicting duplicates, vertex indices on a mesh that was renumbered.
+    MeshError
+        Positions given for a mesh whose points are not all finite.
     """
     path = Path(path)
     kind = _sample_kind(path)
@@ -126,6 +128,10 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         if not np.all(col == np.round(col)):
             row = int(np.flatnonzero(col != np.round(col))[0])
             raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is not an integer")
+    if kind != "vertex" and not np.isfinite(np.asarray(V, dtype=np.float64)).all():
+        bad = int(np.flatnonzero(~np.isfinite(np.asarray(V, dtype=np.float64)).all(axis=1))[0])
+        raise MeshError(f"{path.name}: its positions cannot be snapped to a mesh with NaN or infinite coordinates "
+                        f"(vertex {bad}); fix the mesh's points")
     try:
         if kind == "vertex":
             return Samples.from_indices(col.astype(np.int64), table[:, 1:], n, names=names, duplicates=duplicates)
@@ -191,6 +197,17 @@ def _read_csv(path):
 def _npy_header(fh, name, size):
     """Shape and dtype from an NPY header, checked against the bytes that follow."""
     version = np.lib.format.read_magic(fh)
+    if version not in ((1, 0), (2, 0), (3, 0)):
+        raise ReadError(f"{name}: NPY format version {version[0]}.{version[1]} is not 1.0, 2.0 or 3.0; the file is "
+                        f"damaged")
+    # the header's own length first: numpy reads that many bytes at once, 4 GB if the file says so
+    start = fh.tell()
+    width = 2 if version == (1, 0) else 4
+    length = int.from_bytes(fh.read(width), "little")
+    fh.seek(start)
+    if length > size - start - width:
+        raise ReadError(f"{name}: the header claims {length:,} header bytes but only {max(size - start - width, 0):,} "
+                        f"bytes follow; the file is truncated or damaged")
     if version == (1, 0):
         shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
     else:
@@ -204,9 +221,9 @@ def _npy_header(fh, name, size):
     return shape, dtype
 
 
-def _load_npy(path):
-    """np.load of one ``.npy`` file whose header was checked first."""
-    with reading(path, "NPY array"):
+def _load_npy(path, kind="NPY array"):
+    """np.load of one ``.npy`` file whose header was checked first (``kind`` names it in messages)."""
+    with reading(path, kind):
         with open(path, "rb") as fh:
             _npy_header(fh, path.name, os.path.getsize(path))
         return np.load(path, allow_pickle=False)

@@ -56,6 +56,8 @@ def read_tets(path):
             kinds = ", ".join(k for k, c in cells.items() if len(c)) or "none"
             raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
         return V, cells["tetra"]
+    if ext == ".msh":
+        _check_msh(path)
     mesh = _meshio_read(path, ext, TET_FORMATS[ext])
     tets = [b.data for b in mesh.cells if b.type == "tetra"]
     if not tets:
@@ -65,6 +67,82 @@ def read_tets(path):
     T = np.concatenate(tets).astype(np.int64)
     _check_cells(path, V[:, :3] if V.ndim == 2 else V, T, "tetrahedron")
     return V[:, :3], T
+
+
+def _check_msh(path):
+    """Refuse Gmsh counts that the file cannot hold: meshio allocates for them (numpy.fromfile) before reading.
+
+    Version 2 files are walked section by section (nodes, element blocks, node and element data); of ASCII version 4
+    files the counts lines of ``$Nodes`` and ``$Elements`` are checked.
+    """
+    import re
+
+    from .files import check_count
+
+    data = path.read_bytes()
+    fmt = re.search(rb"^\$MeshFormat[ \t\r]*\n[ \t]*([0-9.]+)[ \t]+([0-9]+)", data, re.M)
+    if fmt is None:
+        return  # meshio says what is wrong
+    binary, major = fmt.group(2) == b"1", fmt.group(1).split(b".")[0]
+
+    def ints(pos, what):
+        """The integers of the line at ``pos`` and where the next line starts."""
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end
+        words = data[pos:end].split()
+        if not words or not all(re.fullmatch(rb"[-+]?[0-9]{1,40}", w) for w in words):
+            raise ReadError(f"{path.name}: the {what} line {data[pos:end][:40].decode('latin-1')!r} is not a line of "
+                            f"integers; the file is damaged, check it")
+        return [int(w) for w in words], end + 1
+
+    for sec in re.finditer(rb"^\$(Nodes|Elements|NodeData|ElementData)[ \t\r]*\n", data, re.M):
+        name, pos = sec.group(1).decode(), sec.end()
+        if major != b"2" and binary:
+            break  # version 4 gives its binary counts as size_t, not as a line: meshio's checks alone
+        (count, *rest), pos = ints(pos, f"${name} count")
+        if major != b"2":
+            for c in [count] + rest[:1]:
+                check_count(c, path, f"${name} entries", bytes_each=1, start=pos)
+            continue
+        if name == "Nodes":
+            check_count(count, path, "nodes", bytes_each=28 if binary else 8, start=pos)
+        elif name == "Elements":
+            check_count(count, path, "elements", bytes_each=12 if binary else 8, start=pos)
+            seen = 0
+            while binary and seen < count:  # blocks of (type, n, tags) and n records
+                head = np.frombuffer(data[pos:pos + 12], dtype="<i4")
+                if head.size < 3:
+                    break  # meshio's own error
+                if head[1] < 0 or head[2] < 0:
+                    raise ReadError(f"{path.name}: an element block claims {head[1]} elements of {head[2]} tags; the "
+                                    f"file is damaged, check it")
+                width = 1 + int(head[2]) + _gmsh_nodes(int(head[0]))
+                check_count(int(head[1]), path, "elements in a block", bytes_each=4 * width, start=pos + 12)
+                pos, seen = pos + 12 + 4 * width * int(head[1]), seen + int(head[1])
+        else:  # string, real and integer tags, one a line, then the values
+            for kind in ("string", "real", "integer"):
+                check_count(count, path, f"{kind} tags of ${name}", bytes_each=2, start=pos)
+                tags = []
+                for _ in range(count):
+                    end = data.find(b"\n", pos)
+                    tags.append(data[pos:end if end >= 0 else len(data)])
+                    pos = len(data) if end < 0 else end + 1
+                if kind == "integer":
+                    values = [int(t) for t in tags if re.fullmatch(rb"\s*[-+]?[0-9]{1,40}\s*", t)]
+                    if len(values) >= 3:  # items of an index and the components (4-byte values at least)
+                        comps = max(values[1], 0)
+                        check_count(values[2], path, f"items of ${name}", bytes_each=4 * (1 + comps) if binary
+                                    else 2 * (1 + comps), start=pos)
+                elif pos < len(data):
+                    (count, *_), pos = ints(pos, f"${name} tag count")
+
+
+def _gmsh_nodes(code):
+    """Nodes of a Gmsh element type (1 for types meshio does not know: it refuses them itself)."""
+    from meshio._common import num_nodes_per_cell
+    from meshio.gmsh.common import _gmsh_to_meshio_type
+
+    return num_nodes_per_cell.get(_gmsh_to_meshio_type.get(code), 1)
 
 
 def has_tets(path):
@@ -196,7 +274,7 @@ def read_mask(path, *, field=None):
     if ext == ".npy":
         from .sampleio import _load_npy
 
-        arr = _load_npy(path)  # the header checked against the file's size first
+        arr = _load_npy(path, ".npy array")  # the header checked against the file's size first
         spacing = origin = None
     else:
         fields, spacing, origin = read_vti(path)

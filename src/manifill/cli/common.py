@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SampleError, WriteError
+from ..errors import SampleError, WriteError
 
-__all__ = ["load", "check_outputs", "write_surface", "levels", "step_bar", "print_time", "pictures"]
+__all__ = ["load", "check_outputs", "write_surface", "levels", "step_bar", "print_time", "pictures", "chosen_field",
+           "surface_outputs", "check_names", "masks", "print_ranges", "err"]
 
 
 def load(args):
@@ -27,10 +28,10 @@ def load(args):
     V, F : numpy arrays
     S : manifill.samples.Samples
     """
-    from .io import read_mesh_file
-    from .sampleio import read_samples
-    from .samples import Samples
-    from .topology import clean_mesh
+    from ..io import read_mesh_file
+    from ..sampleio import read_samples
+    from ..samples import Samples
+    from ..topology import clean_mesh
 
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
@@ -122,7 +123,7 @@ def check_outputs(outputs, inputs):
 
 def write_surface(out, V, F, fields, masks):
     """Write fields plus manifill's masks to a mesh file, saying what the format renamed or hides."""
-    from .io import format_note, write_mesh
+    from ..io import format_note, write_mesh
 
     written = write_mesh(out, V, F, {**fields, **masks})
     renamed = {a: b for a, b in written.items() if a != b}
@@ -147,7 +148,7 @@ def levels(text):
 
 def step_bar(args, total):
     """The progress bar of a command (nothing with --quiet)."""
-    from .progress import StepBar
+    from ..progress import StepBar
 
     return StepBar(total, enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
 
@@ -166,7 +167,7 @@ def chosen_field(args, names):
     if name is None:
         return names[0]
     if name not in names:
-        from .errors import OptionError
+        from ..errors import OptionError
 
         raise OptionError(f"--field {name!r} is not one of the fields ({', '.join(names)}); pick one of them")
     return name
@@ -177,12 +178,12 @@ def pictures(args, V, F, X, names, samples=None, curves=None, title=None):
     field = chosen_field(args, names)
     fields = {name: X[:, j] for j, name in enumerate(names)}
     if getattr(args, "render", None):
-        from .render import render
+        from ..render import render
 
         render(V, F, fields[field], args.render, samples=samples, curves=curves, title=title or field, name=field)
         print(f"rendered {args.render} ({field})")
     if getattr(args, "html", None):
-        from .viewer import write_html
+        from ..viewer import write_html
 
         write_html(args.html, V, F, fields, field=field, samples=samples, curves=curves,
                    title=title or "manifill")
@@ -193,3 +194,42 @@ def err(msg):
     """Print the one-line error and give exit status 2."""
     print(f"manifill: error: {msg}", file=sys.stderr)
     return 2
+
+
+def surface_outputs(args, pictures=True):
+    """-o (and --render/--html) of a surface command, checked before any work."""
+    from ..io import MESH_FORMATS
+    from ..sampleio import VALUE_FORMATS
+
+    meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
+    outs = [("-o", args.output, meshes + VALUE_FORMATS)]
+    if pictures:
+        outs += [("--render", getattr(args, "render", None), (".png",)),
+                 ("--html", getattr(args, "html", None), (".html",))]
+    return check_outputs(outs, [args.mesh, args.samples])[0]
+
+
+def check_names(args, S, out):
+    """The field names against the output's format and manifill's masks, and --field, before the work."""
+    from ..io import check_field_names
+
+    check_field_names(S.names, out)
+    chosen_field(args, S.names)
+
+
+def masks(n, idx, **extra):
+    """manifill's mask arrays of a surface result, under their fixed names."""
+    from ..io import SAMPLE_MASK
+
+    sample = np.zeros(n, dtype=bool)
+    sample[idx] = True
+    return {SAMPLE_MASK: sample, **extra}
+
+
+def print_ranges(X, S, out):
+    """Each field's range beside the samples' (overshoot shows), and the output path."""
+    lo, hi = np.nanmin(X, axis=0), np.nanmax(X, axis=0)
+    for j, name in enumerate(S.names):
+        print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{S.vals[:, j].min():.6g}, "
+              f"{S.vals[:, j].max():.6g}])")
+    print(f"wrote {out}")

@@ -1,12 +1,51 @@
-"""The ``manifill volume`` subcommand: Steps 1-8 inside a solid (surface, tetrahedra or voxel mask)."""
+"""``manifill volume MESH SAMPLES -o OUT``: Steps 1-8 inside a solid (surface, tetrahedra or voxel mask)."""
 
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SampleError
+from ..errors import SampleError
+from .options import SOLVERS, WEIGHTS, output_args, pipeline_args
 
-__all__ = ["cmd_volume"]
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub):
+    """Register ``manifill volume``."""
+    s = sub.add_parser("volume", help="reconstruct inside a solid from samples on its boundary (Steps 1-8)",
+                       description="MESH is a closed surface (.off .obj .ply .stl .vtk .vtu; filled as voxels or "
+                                   "tets, see --form), a tetrahedral mesh (.vtu .vtk .msh) or a voxel mask (.vti "
+                                   ".npy). The samples lie on the boundary. Steps 1-6 run on the boundary surface, "
+                                   "Step 8 fills the inside harmonically. Writes .vti/.npy (voxels) or .vtu/.vtk/.msh "
+                                   "(tets) with the field and the boundary mask.")
+    s.add_argument("mesh", help="closed surface, tetrahedral mesh, or voxel mask (.vti .npy)")
+    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy "
+                                   "(for a mask, vertices are boundary voxels in C order; positions are simpler)")
+    s.add_argument("-o", "--output", required=True, help="output: .vti/.npy (voxels) or .vtu/.vtk/.msh (tets)")
+    s.add_argument("--form", choices=("voxels", "tets"), default="voxels",
+                   help="how to fill a closed surface (default: voxels)")
+    s.add_argument("--resolution", type=int, default=128, help="voxels along the longest side (default: 128)")
+    s.add_argument("--connectivity", type=int, choices=(6, 18, 26), default=6, help="voxel neighbours (default: 6)")
+    s.add_argument("--max-volume", type=float, default=None, help="largest tetrahedron volume (--form tets)")
+    s.add_argument("--fill-solver", choices=("auto", "multigrid", "amg", "direct"), default="auto",
+                   help="solver of the inside (default: auto = multigrid for voxels, AMG for tets)")
+    s.add_argument("--fill-weights", choices=("cotan", "uniform"), default="cotan",
+                   help="tetrahedral weights (default: cotan)")
+    s.add_argument("--allow-open", action="store_true", help="voxelise an open surface by winding numbers")
+    s.add_argument("--spacing", default=None, help="voxel size of a mask, e.g. 1,1,2.5 (default: from .vti, or 1)")
+    s.add_argument("--origin", default=None, help="centre of voxel (0,0,0) of a mask (default: from .vti, or 0)")
+    s.add_argument("--mask-field", default=None, help="the .vti field holding the mask (default: 'mask' or the only)")
+    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
+                   help="two samples on one vertex with different values: error (default) or average")
+    s.add_argument("--max-snap", type=float, default=None, help="largest accepted snap distance of a position")
+    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="surface Laplacian weights (default: cotan)")
+    s.add_argument("--solver", choices=SOLVERS, default="auto", help="surface linear solver (default: auto)")
+    pipeline_args(s, method_help="surface method (default: gvf-harmonic)")
+    s.add_argument("--render", default=None, metavar="OUT.png",
+                   help="also render three slices through the solid (voxels) or its boundary (tets) as a PNG")
+    s.add_argument("--field", default=None, metavar="NAME", help="the field --render draws (default: the first)")
+    output_args(s)
+    s.set_defaults(func=run)
 
 
 def _triple(text, what):
@@ -21,11 +60,11 @@ def _triple(text, what):
     return vals
 
 
-def cmd_volume(args):
+def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
-    from .cli_common import check_outputs, levels, step_bar
-    from .errors import ReadError, WriteError
-    from .volio import GRID_FORMATS, TET_FORMATS, has_tets
+    from .common import check_outputs, levels, step_bar
+    from ..errors import ReadError, WriteError
+    from ..volio import GRID_FORMATS, TET_FORMATS, has_tets
 
     src = Path(args.mesh).suffix.lower()
     if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
@@ -51,9 +90,9 @@ def cmd_volume(args):
 
 def _check_samples(args, S):
     """What the samples' names and count allow for the output, before the work."""
-    from .cli_common import chosen_field
-    from .errors import WriteError
-    from .io import check_field_names
+    from .common import chosen_field
+    from ..errors import WriteError
+    from ..io import check_field_names
 
     check_field_names(S.names, args.output)
     chosen_field(args, S.names)
@@ -64,11 +103,11 @@ def _check_samples(args, S):
 
 def _volume_run(args, kind, form, surface_opts):
     """Read the solid and the samples, run Steps 1-8; print what was read."""
-    from .io import read_mesh_file
-    from .sampleio import read_samples
-    from .solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
-    from .tets import boundary_faces
-    from .volio import read_mask, read_tets
+    from ..io import read_mesh_file
+    from ..sampleio import read_samples
+    from ..solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
+    from ..tets import boundary_faces
+    from ..volio import read_mask, read_tets
 
     if kind == "mask":
         mask, h, o = read_mask(args.mesh, field=args.mask_field)
@@ -108,10 +147,10 @@ def _volume_run(args, kind, form, surface_opts):
 
 def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
-    from .cli_common import chosen_field, print_time
-    from .io import BOUNDARY_MASK, SAMPLE_MASK
-    from .tets import boundary_faces
-    from .volio import write_tets, write_vti
+    from .common import chosen_field, print_time
+    from ..io import BOUNDARY_MASK, SAMPLE_MASK
+    from ..tets import boundary_faces
+    from ..volio import write_tets, write_vti
 
     X = r.values if r.values.ndim == (4 if form == "voxels" else 2) else r.values[..., None]
     fields = {name: X[..., j] for j, name in enumerate(S.names)}
@@ -136,11 +175,11 @@ def _volume_write(args, out, ext, r, S, form):
     j = S.names.index(chosen_field(args, S.names))
     if getattr(args, "render", None):
         if form == "voxels":
-            from .render import render_slices
+            from ..render import render_slices
 
             render_slices(X[..., j], r.spacing, r.origin, args.render, name=S.names[j])
         else:
-            from .render import render
+            from ..render import render
 
             render(r.TV, boundary_faces(r.TT), X[:, j], args.render, name=S.names[j], title="boundary of the solid")
         print(f"rendered {args.render} ({S.names[j]})")

@@ -1,0 +1,24 @@
+"""``manifill demo``: the built-in example."""
+
+from .options import output_args
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub):
+    """Register ``manifill demo``."""
+    s = sub.add_parser("demo", help="run the built-in example (nothing downloaded)",
+                       description="Reconstruct a known field on a generated sphere, write the results "
+                                   "and print the error.")
+    s.add_argument("-o", "--output", default="manifill-demo", help="output folder (default: ./manifill-demo)")
+    output_args(s)
+    s.set_defaults(func=run)
+
+
+def run(args):
+    """``manifill demo``."""
+    from ..demo import run_demo
+
+    report = run_demo(args.output)
+    print(report["text"])
+    return 0

@@ -1,0 +1,120 @@
+"""The ``manifill`` command line: a thin shell over the library.
+
+Subcommands: ``info`` (what is in a mesh), ``check`` (the gradual variation
+condition of samples), ``reconstruct`` (the paper's pipeline), ``harmonic`` (fill a
+field from the samples alone), ``volume`` (Steps 1-8 inside a solid), ``demo`` (the
+built-in example). Bad input ends with exit code 2 and one line
+``manifill: error: ...`` on standard error, never a traceback; nothing is left
+half-written.
+"""
+
+import argparse
+import contextlib
+import io
+import os
+import signal
+import sys
+import threading
+
+from .. import __version__
+from ..errors import ManifillError
+from . import check, demo, harmonic, info, reconstruct, volume
+from .common import err
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: one module per subcommand, in the order of the help
+COMMANDS = (info, harmonic, check, reconstruct, volume, demo)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with manifill's one-line errors (exit status 2)."""
+
+    def error(self, message):
+        self.exit(2, f"manifill: error: {message} (see '{self.prog} --help')\n")
+
+
+def build_parser():
+    """The argument parser (exposed for documentation and tests)."""
+    p = _Parser(
+        prog="manifill",
+        description="Reconstruct a smooth field over a surface from a few sample values, without changing the mesh.",
+    )
+    p.add_argument("--version", action="version", version=f"manifill {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return p
+
+
+def main(argv=None):
+    """Run the command line.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments without the program name; ``sys.argv[1:]`` by default.
+
+    Returns
+    -------
+    int
+        0 on success, 2 on bad input (argparse's usage errors included).
+    """
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    with _terminate_as_interrupt():
+        try:
+            if getattr(args, "quiet", False):
+                with contextlib.redirect_stdout(io.StringIO()):
+                    return args.func(args)
+            return args.func(args)
+        except BrokenPipeError:
+            # the reader went away (e.g. `manifill info --json m.ply | head`): stop quietly
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 1
+        except _Terminated:
+            print("manifill: terminated; no output was left half-written", file=sys.stderr)
+            return 143
+        except KeyboardInterrupt:
+            print("manifill: interrupted; no output was left half-written", file=sys.stderr)
+            return 130
+        except ManifillError as exc:
+            return err(str(exc))
+        except ImportError as exc:
+            return err(str(exc).splitlines()[0])
+        except MemoryError:
+            return err("out of memory during the computation; try a smaller mesh, a lower resolution or solver='amg'")
+        except OSError as exc:
+            return err(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+        except Exception as exc:  # noqa: BLE001 - a bug of manifill's: one line, the traceback on request
+            if os.environ.get("MANIFILL_DEBUG"):
+                raise
+            text = " ".join(str(exc).split())[:200]
+            print(f"manifill: internal error: {type(exc).__name__}: {text} (a bug; MANIFILL_DEBUG=1 shows the "
+                  f"traceback)", file=sys.stderr)
+            return 1
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is so that temporary files are removed on the way out."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """While the command runs, SIGTERM unwinds like Ctrl-C (only in the main thread, where signals arrive)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def raise_terminated(signum, frame):
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)

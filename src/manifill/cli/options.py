@@ -1,0 +1,68 @@
+"""The options several subcommands share, defined once."""
+
+from ..curves import CURVE_VALUES
+from ..geodesic import DISTANCES
+from ..harmonic import ON_EMPTY
+from ..laplacian import WEIGHTS
+from ..partition import PARTITIONS
+from ..reconstruct import METHODS
+from ..solvers import SOLVERS
+
+__all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args",
+           "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
+
+MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
+
+
+def sample_args(s):
+    """MESH SAMPLES and the options of reading them, shared by the subcommands."""
+    s.add_argument("mesh", help=f"mesh file ({MESH_HELP})")
+    s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy; "
+                                   "per-vertex data with NaN where unmeasured (.func.gii, .shape.gii, .mgh, "
+                                   "FreeSurfer lh.thickness ...); FreeSurfer .label")
+    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
+                   help="two samples on one vertex with different values: error (default) or average")
+    s.add_argument("--max-snap", type=float, default=None,
+                   help="largest accepted distance from a sample position to its vertex "
+                        "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
+    s.add_argument("--clean", action="store_true",
+                   help="weld coinciding vertices and drop unused vertices and zero-area faces first")
+
+
+def fill_args(s):
+    """-o OUT and the options of the harmonic fill, shared by harmonic and reconstruct."""
+    s.add_argument("-o", "--output", required=True,
+                   help="output: .vtu/.vtp/.vtk/.ply (mesh with named fields) or .csv/.npy (values)")
+    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
+    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
+    s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
+                   help="a component without samples: error (default) or fill with NaN")
+
+
+def picture_args(s):
+    """--render, --html and --field of a surface result."""
+    s.add_argument("--render", default=None, metavar="OUT.png",
+                   help="also render the result (field, samples, curves) as a PNG, off-screen (needs pyvista)")
+    s.add_argument("--html", default=None, metavar="OUT.html",
+                   help="also write an interactive viewer: one self-contained HTML file that opens offline, "
+                        "with a menu of every field")
+    s.add_argument("--field", default=None, metavar="NAME",
+                   help="the field --render draws and --html shows first (default: the first value column)")
+
+
+def output_args(s):
+    """--quiet and --verbose."""
+    g = s.add_mutually_exclusive_group()
+    g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors (no progress bar)")
+    g.add_argument("-v", "--verbose", action="store_true", help="also print the time of every step")
+
+
+
+
+def pipeline_args(s, *, method_help="default: gvf-harmonic"):
+    """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
+    s.add_argument("--method", choices=METHODS, default="gvf-harmonic", help=method_help)
+    s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
+    s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
+    s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
+    s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")

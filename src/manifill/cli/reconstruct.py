@@ -1,0 +1,83 @@
+"""``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6)."""
+
+from .common import (check_names, levels, load, masks, pictures, print_ranges, print_time, step_bar, surface_outputs,
+                     write_surface)
+from .options import fill_args, output_args, picture_args, pipeline_args, sample_args
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub):
+    """Register ``manifill reconstruct``."""
+    s = sub.add_parser("reconstruct", help="the paper's reconstruction: partition, curve values, harmonic patches",
+                       description="Reconstruct a field from samples: check the gradual variation condition, "
+                                   "cut the surface by curves through every sample, give the curves values and "
+                                   "fill every patch harmonically. Writes the field, the curve mask and the "
+                                   "patch labels.")
+    sample_args(s)
+    fill_args(s)
+    pipeline_args(s)
+    s.add_argument("--subdivide", type=int, default=0, metavar="K",
+                   help="Loop-subdivide the result K times before writing it (a smoother surface)")
+    picture_args(s)
+    output_args(s)
+    s.set_defaults(func=run)
+
+
+def run(args):
+    """``manifill reconstruct MESH SAMPLES -o OUT``."""
+    from ..io import CURVE_MASK, PATCH_LABEL
+    from ..reconstruct import reconstruct
+    from ..sampleio import VALUE_FORMATS, write_values
+
+    out = surface_outputs(args)
+    V, F, S = load(args)
+    check_names(args, S, out)
+    if args.subdivide:
+        from ..subdivide import check_subdivide
+
+        check_subdivide(len(V), len(F), args.subdivide, len(S.names))
+    bar = step_bar(args, 5)
+    try:
+        r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
+                        distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
+                        solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates, progress=bar)
+    finally:
+        bar.close()
+    X = r.values if r.values.ndim == 2 else r.values[:, None]
+    if args.subdivide:
+        from ..subdivide import subdivide
+
+        V2, F2, X2 = subdivide(V, F, X, levels=args.subdivide)
+        if out.suffix.lower() in VALUE_FORMATS:
+            write_values(out, X2, S.names)
+        else:
+            write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)}, {})
+        print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
+              f"the masks are not written)")
+    elif out.suffix.lower() in VALUE_FORMATS:
+        write_values(out, X, S.names)
+    else:
+        fields = {name: X[:, j] for j, name in enumerate(S.names)}
+        write_surface(out, V, F, fields, masks(len(V), S.idx, **{CURVE_MASK: r.on_curve, PATCH_LABEL: r.components}))
+    rep = r.report
+    print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
+    if S.snap_distance is not None:
+        print(f"snapped positions to vertices: largest distance {S.snap_distance.max():.3g}")
+    for name, c in zip(S.names, rep["check"]):
+        state = "holds" if c["holds"] else f"fails for {c['violations']} samples"
+        print(f"step 1 ({name}): {c['levels']} levels, Lipschitz {c['lipschitz_hops']:.4g} per hop; "
+              f"gradual variation {state}")
+    if "partition" in rep:
+        pr = rep["partition"]
+        print(f"steps 2-3: {pr['method']} partition, {pr['curves']} curves through {pr['curve_vertices']:,} "
+              f"vertices, {pr['patches']} patches (largest {max(pr['patch_sizes'] or [0]):,})")
+    if "harmonic" in rep:
+        h = rep["harmonic"]
+        its = h.get("iterations")
+        print(f"steps 5-6: harmonic fill, weights={h['weights']}, solver={h['solver']}"
+              + (f", {', '.join(map(str, its))} iterations" if its else ""))
+    print_time(args, rep["seconds"])
+    print_ranges(X, S, out)
+    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method}")
+    return 0

@@ -18,7 +18,10 @@ Manifolds*, with the mesh left as it is. The modules follow the pipeline:
 - :mod:`manifill.volume`, :mod:`manifill.gridsolver` - Step 8: the harmonic fill of a solid
 - :mod:`manifill.solid` - Steps 1-8 on a solid in one call
 - :mod:`manifill.memory` - memory estimates before large solves
-- :mod:`manifill.io` - meshes, samples and fields on disk
+- :mod:`manifill.io` - the format registry: meshes and fields on disk; :mod:`manifill.sampleio` - samples
+- :mod:`manifill.vtkxml`, :mod:`manifill.vtklegacy`, :mod:`manifill.neuro` - VTK XML, legacy VTK, GIfTI/FreeSurfer
+- :mod:`manifill.meshobj` - pyvista, trimesh and meshio objects in and out
+- :mod:`manifill.cli` - the command line, one module per subcommand
 """
 
 __version__ = "0.1.0"

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from .errors import ManifillError, ReadError, WriteError
 
-__all__ = ["atomic_path", "suffix", "reading", "check_count", "check_input_file"]
+__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file"]
 
 #: loggers of the parsers that print their notes through handlers of their own
 _PARSER_LOGGERS = ("nibabel",)
@@ -78,10 +78,7 @@ def reading(path, kind):
     """
     name = Path(path).name
     try:
-        # the parsers' notes go nowhere: warnings, what meshio prints to stderr itself, nibabel's log lines
-        with warnings.catch_warnings(), redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()), \
-                _silent_loggers():
-            warnings.simplefilter("ignore")
+        with quiet():
             try:
                 yield
             except Exception as exc:
@@ -95,6 +92,19 @@ def reading(path, kind):
                         f"file is damaged; check or re-export it") from None
     except Exception as exc:  # noqa: BLE001 - the parsers raise anything (zipfile, struct, meshio, nibabel...)
         raise ReadError(f"{name}: not a readable {kind} ({_one_line(exc)}); check or re-export the file") from None
+
+
+@contextmanager
+def quiet():
+    """Keep a third-party parser's or writer's notes from the user.
+
+    Its warnings, what it prints itself (meshio writes notes to stderr) and the
+    log lines of parsers with handlers of their own (nibabel) go nowhere.
+    """
+    with warnings.catch_warnings(), redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()), \
+            _silent_loggers():
+        warnings.simplefilter("ignore")
+        yield
 
 
 @contextmanager

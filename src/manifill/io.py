@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ManifillError, ReadError, WriteError
-from .files import atomic_path, check_count, check_input_file, reading, suffix
+from .files import atomic_path, check_count, check_input_file, quiet, reading, suffix
 from .sampleio import SAMPLE_FORMATS, VALUE_FORMATS, read_samples, write_values
 
 __all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK",
@@ -576,14 +576,7 @@ def _write_meshio(path, V, cells, point_data, fmt):
     mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), cells, point_data=point_data)
     with atomic_path(path) as tmp:
         try:
-            import contextlib
-            import io
-            import warnings
-
-            # meshio prints its notes (e.g. Gmsh's "Appending zeros") itself: they never reach the user
-            with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
-                    contextlib.redirect_stderr(io.StringIO()):
-                warnings.simplefilter("ignore")
+            with quiet():  # meshio prints its notes (e.g. Gmsh's "Appending zeros") itself
                 meshio.write(tmp, mesh, file_format=fmt)
         except (meshio.WriteError, ValueError, KeyError, TypeError, OSError) as exc:
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path and the fields") from None

@@ -90,12 +90,10 @@ def run(args):
 
 def _check_samples(args, S):
     """What the samples' names and count allow for the output, before the work."""
-    from .common import chosen_field
     from ..errors import WriteError
-    from ..io import check_field_names
+    from .common import check_names
 
-    check_field_names(S.names, args.output)
-    chosen_field(args, S.names)
+    check_names(args, S, args.output)
     if Path(args.output).suffix.lower() == ".npy" and len(S.names) > 1:
         raise WriteError(f"{Path(args.output).name}: .npy holds one field but the samples have {len(S.names)} "
                          f"({', '.join(S.names)}); write .vti")

@@ -41,7 +41,7 @@ def metrics(x, truth, idx):
 
 def _warm_up(log):
     """One call of every method on a tiny sphere: imports and first-call set-up are not timed later."""
-    from manifill.shapes import icosphere
+    from manifill.mesh.shapes import icosphere
 
     V, F = icosphere(2)
     idx = np.arange(0, len(V), 9)

@@ -119,7 +119,7 @@ def u_strip(h=0.02, *, gap=0.15, width=1.0, length=3.0):
     """
     from scipy.spatial import Delaunay
 
-    from manifill.topology import clean_mesh
+    from manifill.mesh.topology import clean_mesh
 
     r1 = gap / 2 + width
     dy = h * np.sqrt(3) / 2
@@ -168,9 +168,9 @@ def _pyvista_mesh(name, levels):
     """One of the meshes shipped inside pyvista's examples folder: welded, subdivided, unit diagonal."""
     import pyvista.examples as ex
 
-    from manifill.io import read_mesh
-    from manifill.subdivide import subdivide
-    from manifill.topology import clean_mesh
+    from manifill.io.registry import read_mesh
+    from manifill.mesh.subdivide import subdivide
+    from manifill.mesh.topology import clean_mesh
     from manifill.validate import bbox_diagonal
 
     V, F = read_mesh(Path(ex.__file__).with_name(name))
@@ -204,7 +204,7 @@ def _exact_geodesic(V, F, sources):
 
 
 def sphere_cases(level):
-    from manifill.shapes import icosphere
+    from manifill.mesh.shapes import icosphere
 
     V, F = icosphere(level)
     V = V / np.abs(V).max()
@@ -229,7 +229,7 @@ def u_case(h):
 
 
 def airplane_case(levels):
-    from manifill.topology import connected_components
+    from manifill.mesh.topology import connected_components
 
     V, F = _pyvista_mesh("airplane.ply", levels)
     count, labels = connected_components(F, len(V))
@@ -243,7 +243,7 @@ def airplane_case(levels):
 
 
 def ant_case(levels):
-    from manifill.topology import connected_components
+    from manifill.mesh.topology import connected_components
 
     V, F = _pyvista_mesh("ant.ply", levels)
     count, labels = connected_components(F, len(V))

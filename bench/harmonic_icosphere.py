@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 import manifill
-from manifill.shapes import icosphere
-from manifill.topology import adjacency
+from manifill.mesh.shapes import icosphere
+from manifill.mesh.topology import adjacency
 
 
 def great_circle_network(V, F):

@@ -10,7 +10,7 @@ peers:
   the vertex positions (straight-line distance; on a flat mesh the constant
   coordinate is dropped, as the polynomial part would be singular);
 - the nearest sample by geodesic distance: one multi-source Dijkstra on the
-  mesh graph with edge-length weights (``manifill.geodesic``), every vertex
+  mesh graph with edge-length weights (``manifill.mesh.graph``), every vertex
   takes the value of the sample it reaches first.
 """
 
@@ -63,7 +63,7 @@ def rbf_tps(V, F, idx, vals):
 
 def nearest_geodesic(V, F, idx, vals):
     """Value of the geodesically nearest sample (one multi-source Dijkstra, edge-length weights)."""
-    from manifill.geodesic import mesh_graph, offset_distances
+    from manifill.mesh.graph import mesh_graph, offset_distances
 
     G = mesh_graph(V, F, distance="length")
     _, root, _ = offset_distances(G, idx, np.zeros(len(idx)))

@@ -17,8 +17,8 @@ import time
 import numpy as np
 
 import manifill
-from manifill.reconstruct import reconstruct
-from manifill.shapes import icosphere
+from manifill.surface.reconstruct import reconstruct
+from manifill.mesh.shapes import icosphere
 
 CONFIGS = [
     ("harmonic (samples fixed)", dict(method="harmonic")),

@@ -29,11 +29,11 @@ from scipy.sparse import csgraph
 from scipy.sparse.linalg import splu
 
 import manifill
-from manifill.geodesic import mesh_graph
-from manifill.gradual import check_gradual
-from manifill.harmonic import HarmonicSolver
-from manifill.reconstruct import reconstruct
-from manifill.shapes import icosphere
+from manifill.mesh.graph import mesh_graph
+from manifill.surface.gradual import check_gradual
+from manifill.surface.harmonic import HarmonicSolver
+from manifill.surface.reconstruct import reconstruct
+from manifill.mesh.shapes import icosphere
 
 
 def field(V):

@@ -53,7 +53,7 @@ STEPS = ("validate", "graph", "partition", "check", "curve_values", "harmonic")
 
 
 def _problem(level, k):
-    from manifill.shapes import icosphere
+    from manifill.mesh.shapes import icosphere
 
     from .fields import smooth_field
 
@@ -282,7 +282,7 @@ def _status(r):
 
 def speed_markdown(res):
     lines = ["## Speed", ""]
-    lines += [f"Icospheres (`manifill.shapes.icosphere(level)`), levels {', '.join(map(str, res['levels']))}, "
+    lines += [f"Icospheres (`manifill.mesh.shapes.icosphere(level)`), levels {', '.join(map(str, res['levels']))}, "
               f"{res['k']} random samples of the smooth field. Every tool runs in a fresh process; times are the "
               f"best of up to {res['repeat']} runs inside that process (slow ones fewer), mesh building excluded. "
               f"`manifill.reconstruct` and `igl.harmonic` on the same fixed set (its curve network and values) "

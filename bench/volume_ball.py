@@ -39,7 +39,7 @@ def exact(n):
 
 def one(n, solver):
     """One fill in this process; prints a JSON line."""
-    from manifill.voxels import boundary_voxels
+    from manifill.solid.voxels import boundary_voxels
 
     mask = ball(n)
     fixed = boundary_voxels(mask)
@@ -48,7 +48,7 @@ def one(n, solver):
     if solver == "pyamg":
         import pyamg
 
-        from manifill.voxels import voxel_laplacian
+        from manifill.solid.voxels import voxel_laplacian
 
         t0 = time.perf_counter()
         L = voxel_laplacian(mask)

@@ -8,8 +8,8 @@ below expose the fixed ones by name. Every random mesh has a fixed seed.
 import numpy as np
 import pytest
 
-from manifill.shapes import grid as _shapes_grid
-from manifill.shapes import icosphere as _shapes_icosphere
+from manifill.mesh.shapes import grid as _shapes_grid
+from manifill.mesh.shapes import icosphere as _shapes_icosphere
 
 # ---------------------------------------------------------------------------
 # mesh builders
@@ -23,7 +23,7 @@ def single_triangle():
 
 
 def grid(n=6, m=None, *, size=(1.0, 1.0), diagonal="alternate"):
-    """Flat n x m grid of the unit square (manifill.shapes.grid)."""
+    """Flat n x m grid of the unit square (manifill.mesh.shapes.grid)."""
     return _shapes_grid(n, m, size=size, diagonal=diagonal)
 
 

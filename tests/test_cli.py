@@ -15,8 +15,8 @@ from scipy.spatial import cKDTree
 import manifill
 from manifill import harmonic, mesh_info
 from conftest import assert_usage_error, files, run
-from manifill.io import read_mesh, write_mesh
-from manifill.shapes import grid, icosphere
+from manifill.io.registry import read_mesh, write_mesh
+from manifill.mesh.shapes import grid, icosphere
 
 pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
 
@@ -451,8 +451,8 @@ def test_check_holds_with_auto_levels_and_prints_the_lipschitz_constant(tmp_path
     s = sphere
     code, out, err = run(capsys, "check", s["path"], s["samples2"])
     assert code == 0 and err == ""
-    from manifill.geodesic import mesh_graph
-    from manifill.gradual import lipschitz_constant
+    from manifill.mesh.graph import mesh_graph
+    from manifill.surface.gradual import lipschitz_constant
     G = mesh_graph(s["V"], s["F"])
     for j, name in enumerate(["temp", "pressure"]):
         K = lipschitz_constant(G, s["idx"], s["vals"][:, j])[0]
@@ -465,8 +465,8 @@ def test_check_fails_with_too_many_levels_and_lists_pairs(tmp_path, capsys, sphe
     code, out, err = run(capsys, "check", s["path"], s["samples"], "--levels", "1000")
     assert code == 1 and err == ""
     assert "FAILS for" in out
-    from manifill.geodesic import mesh_graph
-    from manifill.gradual import check_gradual
+    from manifill.mesh.graph import mesh_graph
+    from manifill.surface.gradual import check_gradual
     c = check_gradual(mesh_graph(s["V"], s["F"]), s["idx"], s["vals"][:, 0], levels=1000)
     assert f"FAILS for {len(c.violations)} samples" in out
 
@@ -482,7 +482,7 @@ def test_check_explicit_levels_and_bad_levels(tmp_path, capsys, sphere):
 
 
 def test_reconstruct_writes_field_curves_and_components(tmp_path, capsys, sphere):
-    from manifill.reconstruct import reconstruct
+    from manifill.surface.reconstruct import reconstruct
     s = sphere
     out_path = tmp_path / "rec.vtu"
     code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", out_path, "--curve-values", "linear")

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from conftest import assert_usage_error, files, run
 
-from manifill.io import write_mesh
-from manifill.shapes import icosphere
+from manifill.io.registry import write_mesh
+from manifill.mesh.shapes import icosphere
 
 
 @pytest.fixture
@@ -66,7 +66,7 @@ def test_every_output_is_checked_before_the_work(case, capsys):
 
 
 def test_field_chooses_the_render_and_the_viewer_shows_all(case, capsys):
-    from manifill.viewer import embedded_arrays
+    from manifill.viz.viewer import embedded_arrays
 
     code, out, _ = run(capsys, "harmonic", case / "m.ply", case / "s.csv", "-o", case / "o.vtu", "--html",
                        case / "v.html", "--field", "u", "-q")

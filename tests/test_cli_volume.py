@@ -8,11 +8,11 @@ import pytest
 
 import manifill.memory
 from conftest import assert_usage_error, files, run
-from manifill.io import write_mesh
-from manifill.shapes import icosphere
-from manifill.tets import boundary_faces, tetrahedralize
-from manifill.volio import read_tets, read_vti, write_tets
-from manifill.voxels import boundary_voxels, voxel_centres
+from manifill.io.registry import write_mesh
+from manifill.mesh.shapes import icosphere
+from manifill.solid.tets import boundary_faces, tetrahedralize
+from manifill.io.solids import read_tets, read_vti, write_tets
+from manifill.solid.voxels import boundary_voxels, voxel_centres
 
 needs_tetgen = pytest.mark.skipif(importlib.util.find_spec("tetgen") is None, reason="tetgen is not installed")
 
@@ -186,7 +186,7 @@ def test_npy_mask_with_position_samples(tmp_path, capsys):
 
 
 def test_vti_mask_takes_its_spacing(tmp_path, capsys):
-    from manifill.volio import write_vti
+    from manifill.io.solids import write_vti
 
     mask = voxel_ball((10, 11, 12), 4.2)
     write_vti(tmp_path / "seg.vti", {"mask": mask, "noise": np.zeros(mask.shape)}, spacing=(0.5, 0.5, 1.0),

@@ -6,12 +6,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from conftest import edge_set, grid, icosphere, irregular, torus
-from manifill.curves import curve_values
+from manifill.surface.curve_values import curve_values
 from manifill.errors import OptionError
-from manifill.geodesic import mesh_graph
-from manifill.gradual import check_gradual
-from manifill.partition import partition
-from manifill.shapes import grid as shapes_grid
+from manifill.mesh.graph import mesh_graph
+from manifill.surface.gradual import check_gradual
+from manifill.surface.partition import partition
+from manifill.mesh.shapes import grid as shapes_grid
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow])

@@ -18,8 +18,8 @@ from scipy.sparse import csgraph
 
 from conftest import annulus, grid, icosphere, irregular, lattice, torus, two_components
 from manifill.errors import OptionError, SampleError
-from manifill.geodesic import mesh_graph, offset_distances, trace
-from manifill.gradual import check_gradual, gvf, lipschitz_constant, lipschitz_extension
+from manifill.mesh.graph import mesh_graph, offset_distances, trace
+from manifill.surface.gradual import check_gradual, gvf, lipschitz_constant, lipschitz_extension
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow])

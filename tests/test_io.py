@@ -8,8 +8,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from manifill.errors import ReadError, SampleError, WriteError
-from manifill.io import MESH_FORMATS, read_mesh, read_mesh_file, read_samples, write_mesh, write_values
-from manifill.shapes import grid, icosphere
+from manifill.io.registry import MESH_FORMATS, read_mesh, read_mesh_file, read_samples, write_mesh, write_values
+from manifill.mesh.shapes import grid, icosphere
 
 MESHES = {
     "grid": lambda: grid(5, 4, size=(2.0, 1.5)),
@@ -332,7 +332,7 @@ def test_existing_file_replaced_only_on_success(tmp_path, monkeypatch, ext):
     # a failure inside meshio's writer, or when the finished file replaces the old one
     with monkeypatch.context() as m:
         m.setattr(meshio, "write", failing_meshio_write(OSError("disk full")))
-        m.setattr("manifill.files.os.replace", failing_replace)
+        m.setattr("manifill.io.files.os.replace", failing_replace)
         with pytest.raises(WriteError, match="disk full"):
             write_mesh(path, 2 * V, F, {"t": V[:, 1]})
     assert path.read_bytes() == before

@@ -21,7 +21,7 @@ from conftest import (
     relabel,
 )
 from manifill import MeshError, OptionError, laplacian
-from manifill.laplacian import cotangents
+from manifill.mesh.laplacian import cotangents
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 mesh_params = pytest.mark.parametrize("mesh", list(MESHES), ids=list(MESHES))

@@ -14,23 +14,23 @@ from hypothesis import strategies as st
 from scipy.sparse.linalg import splu
 
 import manifill.memory
-import manifill.solid
-import manifill.solvers
-import manifill.subdivide
-import manifill.tets
-import manifill.volume
-import manifill.voxels
+import manifill.solid.reconstruct_volume
+import manifill.linalg.backends
+import manifill.mesh.subdivide
+import manifill.solid.tets
+import manifill.solid.fill
+import manifill.solid.voxels
 from manifill import OptionError, ResourceError, SampleError
-from manifill.laplacian import laplacian
+from manifill.mesh.laplacian import laplacian
 from manifill.memory import _available_bytes, available_bytes, human, lu_memory
-from manifill.shapes import grid, icosphere
-from manifill.solid import (reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_memory,
+from manifill.mesh.shapes import grid, icosphere
+from manifill.solid.reconstruct_volume import (reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_memory,
                             reconstruct_volume_tets)
-from manifill.solvers import make_linear_solver
-from manifill.subdivide import check_subdivide, subdivide, subdivide_memory, subdivided_size
-from manifill.tets import tet_count, tetrahedralize, tetrahedralize_memory
-from manifill.volume import VoxelFill, fill_memory, tet_fill, tet_fill_memory
-from manifill.voxels import boundary_voxels, voxel_laplacian, voxelize, voxelize_memory
+from manifill.linalg.backends import make_linear_solver
+from manifill.mesh.subdivide import check_subdivide, subdivide, subdivide_memory, subdivided_size
+from manifill.solid.tets import tet_count, tetrahedralize, tetrahedralize_memory
+from manifill.solid.fill import VoxelFill, fill_memory, tet_fill, tet_fill_memory
+from manifill.solid.voxels import boundary_voxels, voxel_laplacian, voxelize, voxelize_memory
 
 GB = 10**9
 UNLIMITED = lambda which: (-1, -1)  # noqa: E731  getrlimit with no limits set
@@ -364,9 +364,9 @@ def test_huge_resolution_is_refused_with_the_real_memory():
 
 def test_reconstruct_volume_refused_before_steps_1_to_6(monkeypatch, little_memory):
     ran = []
-    monkeypatch.setattr(manifill.solid, "reconstruct", lambda *a, **k: ran.append("surface"))
-    monkeypatch.setattr(manifill.solid, "voxelize", lambda *a, **k: ran.append("voxelize"))
-    monkeypatch.setattr(manifill.solid, "tetrahedralize", lambda *a, **k: ran.append("tetgen"))
+    monkeypatch.setattr(manifill.solid.reconstruct_volume, "reconstruct", lambda *a, **k: ran.append("surface"))
+    monkeypatch.setattr(manifill.solid.reconstruct_volume, "voxelize", lambda *a, **k: ran.append("voxelize"))
+    monkeypatch.setattr(manifill.solid.reconstruct_volume, "tetrahedralize", lambda *a, **k: ran.append("tetgen"))
     V, F = SPHERE
     msg = refused_quietly(reconstruct_volume, V, F, [0, 5], [1.0, 2.0], resolution=24)
     assert msg.startswith("the voxel form at resolution 24 (grid 26 x 26 x 26, 17,576 voxels) (multigrid fill)")
@@ -389,7 +389,7 @@ def test_tiny_max_volume_is_refused_with_the_real_memory(monkeypatch):
     avail = available_bytes()
     if avail is None or avail > 1e14:
         pytest.skip("no memory limit is known, or it is above 100 TB")
-    monkeypatch.setattr(manifill.tets.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
+    monkeypatch.setattr(manifill.solid.tets.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
     V, F = icosphere(2)
     msg = refused_quietly(tetrahedralize, V, F, max_volume=1e-12)
     assert msg.startswith("tetrahedralising with max_volume=1e-12 (~6,070,567,0")  # 1.5 * 4.047 / 1e-12
@@ -400,13 +400,13 @@ def test_tiny_max_volume_is_refused_with_the_real_memory(monkeypatch):
 
 
 def test_tetrahedralize_refused_before_tetgen_starts(monkeypatch, little_memory):
-    monkeypatch.setattr(manifill.tets.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
+    monkeypatch.setattr(manifill.solid.tets.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
     msg = refused_quietly(tetrahedralize, *icosphere(1))
     assert msg.startswith("tetrahedralising with no max_volume (~160 tets)")
 
 
 def test_subdivision_refused_before_any_level(monkeypatch, little_memory):
-    monkeypatch.setattr(manifill.subdivide, "loop_matrix", lambda *a, **k: pytest.fail("subdivided"))
+    monkeypatch.setattr(manifill.mesh.subdivide, "loop_matrix", lambda *a, **k: pytest.fail("subdivided"))
     V, F = icosphere(2)
     msg = refused_quietly(subdivide, V, F, V[:, 0], levels=1)
     assert msg.startswith("subdividing 1 time (~1,280 faces) needs about ")
@@ -437,7 +437,7 @@ def test_subdivision_runs_with_plenty(plenty_memory):
 
 
 def test_direct_solver_refused_before_factorising(monkeypatch, little_memory):
-    monkeypatch.setattr(manifill.solvers, "splu", lambda *a, **k: pytest.fail("factorised"))
+    monkeypatch.setattr(manifill.linalg.backends, "splu", lambda *a, **k: pytest.fail("factorised"))
     V, F = icosphere(3)
     A = (laplacian(V, F) + sp.eye_array(len(V))).tocsr()
     msg = refused_quietly(make_linear_solver, A, "direct")
@@ -455,7 +455,7 @@ def test_direct_solver_runs_with_plenty(plenty_memory):
 def test_tet_fill_refused_before_the_laplacian(monkeypatch):
     V, F = icosphere(2)
     TV, TT = tetrahedralize(V, F, max_volume=1e-3)
-    monkeypatch.setattr(manifill.volume, "tet_laplacian", lambda *a, **k: pytest.fail("assembled"))
+    monkeypatch.setattr(manifill.solid.fill, "tet_laplacian", lambda *a, **k: pytest.fail("assembled"))
     monkeypatch.setattr(manifill.memory, "available_bytes", lambda: 1000)
     msg = refused_quietly(tet_fill, TV, TT, np.arange(len(V)), V[:, 0], solver="direct")
     assert msg.startswith(f"the harmonic fill of {len(TV) - len(V):,} tet vertices (direct)")
@@ -470,9 +470,9 @@ def test_tet_mesh_and_mask_input_refused_before_steps_1_to_6(monkeypatch):
     V, F = icosphere(1)
     TV, TT = tetrahedralize(V, F, max_volume=0.01)
     monkeypatch.setattr(manifill.memory, "available_bytes", lambda: 1000)
-    monkeypatch.setattr(manifill.solid, "reconstruct", lambda *a, **k: pytest.fail("surface steps ran"))
-    monkeypatch.setattr(manifill.solid, "_pipeline", lambda *a, **k: pytest.fail("surface steps ran"))
-    monkeypatch.setattr(manifill.solid, "digital_surface", lambda *a, **k: pytest.fail("digital surface made"))
+    monkeypatch.setattr(manifill.solid.reconstruct_volume, "reconstruct", lambda *a, **k: pytest.fail("surface steps ran"))
+    monkeypatch.setattr(manifill.solid.reconstruct_volume, "_pipeline", lambda *a, **k: pytest.fail("surface steps ran"))
+    monkeypatch.setattr(manifill.solid.reconstruct_volume, "digital_surface", lambda *a, **k: pytest.fail("digital surface made"))
     msg = refused_quietly(reconstruct_volume_tets, TV, TT, [0, 1], [1.0, 2.0], fill_solver="direct")
     assert msg.startswith(f"the harmonic fill of {len(TV) - len(V):,} tet vertices (direct) needs about")
     assert "fill_solver='amg' (CLI --fill-solver amg)" in msg
@@ -482,7 +482,7 @@ def test_tet_mesh_and_mask_input_refused_before_steps_1_to_6(monkeypatch):
 
 
 def test_voxel_fill_refused_before_its_components(monkeypatch, little_memory):
-    monkeypatch.setattr(manifill.volume, "voxel_components", lambda *a, **k: pytest.fail("labelled"))
+    monkeypatch.setattr(manifill.solid.fill, "voxel_components", lambda *a, **k: pytest.fail("labelled"))
     mask = np.ones((12, 12, 12), dtype=bool)
     fixed = boundary_voxels(mask)
     msg = refused_quietly(VoxelFill, mask, fixed)

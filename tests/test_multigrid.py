@@ -8,9 +8,9 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import cg, splu
 
 from conftest import grid, icosphere
-from manifill.laplacian import laplacian
-from manifill.multigrid import Multigrid
-from manifill.solvers import AMGSolver
+from manifill.mesh.laplacian import laplacian
+from manifill.linalg.amg import Multigrid
+from manifill.linalg.backends import AMGSolver
 from manifill.tolerances import TOL
 
 #: Dirichlet problems on surfaces: a closed sphere and a flat square, a few fixed vertices each.

@@ -5,10 +5,10 @@ import pytest
 from conftest import run
 
 from manifill.errors import ReadError, SampleError
-from manifill.io import read_mesh_file
-from manifill.reconstruct import reconstruct
-from manifill.sampleio import read_samples
-from manifill.shapes import icosphere
+from manifill.io.registry import read_mesh_file
+from manifill.surface.reconstruct import reconstruct
+from manifill.io.samples import read_samples
+from manifill.mesh.shapes import icosphere
 
 nib = pytest.importorskip("nibabel")
 from nibabel.freesurfer import write_geometry, write_morph_data  # noqa: E402

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from conftest import edge_set, grid, icosphere, irregular, torus, two_components
 from manifill.errors import OptionError
-from manifill.geodesic import mesh_graph
-from manifill.partition import partition
+from manifill.mesh.graph import mesh_graph
+from manifill.surface.partition import partition
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow])

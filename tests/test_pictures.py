@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from conftest import grid, icosphere
 from manifill import MeshError, OptionError, WriteError, reconstruct
 from manifill.cli import main
-from manifill.subdivide import loop_matrix, subdivide
-from manifill.viewer import embedded_arrays, write_html
+from manifill.mesh.subdivide import loop_matrix, subdivide
+from manifill.viz.viewer import embedded_arrays, write_html
 
 pv = pytest.importorskip("pyvista")
 
@@ -100,7 +100,7 @@ def test_subdivision_bad_mesh():
 
 
 def test_render_has_the_size_and_is_not_blank(tmp_path):
-    from manifill.render import render
+    from manifill.viz.render import render
 
     V, F = icosphere(3)
     path = tmp_path / "a.png"
@@ -113,7 +113,7 @@ def test_render_has_the_size_and_is_not_blank(tmp_path):
 def test_render_colours_follow_the_field(tmp_path):
     # a field rising left to right, seen from the front: the picture's colour (viridis: dark to bright)
     # brightens across the image
-    from manifill.render import render
+    from manifill.viz.render import render
 
     V, F = grid(30)
     V = np.column_stack([V[:, 0], V[:, 1], np.zeros(len(V))])
@@ -134,7 +134,7 @@ def test_render_colours_follow_the_field(tmp_path):
 
 
 def test_slices_and_panels(tmp_path):
-    from manifill.render import render_panels, render_slices
+    from manifill.viz.render import render_panels, render_slices
 
     x, y, z = np.indices((20, 20, 20)) - 9.5
     vals = np.where(x**2 + y**2 + z**2 < 81, x / 10.0, np.nan)
@@ -196,7 +196,7 @@ def test_viewer_draws_in_headless_chromium(tmp_path):
 
 
 def test_cli_render_html_subdivide_quiet(tmp_path, capsys):
-    from manifill.io import write_mesh
+    from manifill.io.registry import write_mesh
 
     V, F = icosphere(2)
     write_mesh(tmp_path / "m.ply", V, F)
@@ -220,7 +220,7 @@ def test_cli_render_html_subdivide_quiet(tmp_path, capsys):
 
 @pytest.mark.parametrize("flag, name", [("--render", "x.jpg"), ("--html", "x.htm"), ("--render", "no/x.png")])
 def test_cli_bad_picture_names_exit_2_before_work(tmp_path, capsys, flag, name):
-    from manifill.io import write_mesh
+    from manifill.io.registry import write_mesh
 
     V, F = icosphere(1)
     write_mesh(tmp_path / "m.ply", V, F)
@@ -333,7 +333,7 @@ def test_viewer_unknown_field_lists_the_names(tmp_path):
     ("empty-dict", None, WriteError),
 ])
 def test_viewer_and_render_reject_fields_that_do_not_fit(tmp_path, values, names, error):
-    from manifill.render import render
+    from manifill.viz.render import render
 
     V, F = icosphere(1)
     n = len(V)
@@ -349,7 +349,7 @@ def test_viewer_and_render_reject_fields_that_do_not_fit(tmp_path, values, names
 
 def test_render_draws_the_chosen_field_as_if_alone(tmp_path):
     # choosing field "b" of several gives the very picture of "b" rendered alone (same name on the colour bar)
-    from manifill.render import render
+    from manifill.viz.render import render
 
     V, F = icosphere(3)
     a, b = V[:, 0], 3 * V[:, 2] ** 2 - 1

@@ -6,9 +6,9 @@ from scipy.sparse import csgraph
 
 from conftest import edge_set, grid, icosphere, irregular, relabel, torus, two_components
 from manifill import OptionError, SampleError, SolveError, harmonic
-from manifill.geodesic import mesh_graph
-from manifill.reconstruct import reconstruct
-from manifill.shapes import grid as shapes_grid
+from manifill.mesh.graph import mesh_graph
+from manifill.surface.reconstruct import reconstruct
+from manifill.mesh.shapes import grid as shapes_grid
 
 METHODS = ("gvf-harmonic", "harmonic", "gvf")
 PARTITIONS = ("delaunay", "cycle", "tree")

@@ -7,9 +7,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from manifill.errors import ReadError, SampleError
-from manifill.io import read_samples
-from manifill.samples import Samples, snap_to_vertices
-from manifill.shapes import grid
+from manifill.io.registry import read_samples
+from manifill.surface.samples import Samples, snap_to_vertices
+from manifill.mesh.shapes import grid
 
 
 def mesh():

@@ -19,11 +19,11 @@ from hypothesis import strategies as st
 
 from conftest import dense
 from manifill import HarmonicSolver, MeshError, SampleError, harmonic, laplacian, reconstruct
-from manifill.curves import curve_graph, vertex_normals
-from manifill.geodesic import mesh_graph
-from manifill.samples import Samples, snap_to_vertices
-from manifill.shapes import icosphere
-from manifill.topology import clean_mesh, mesh_info
+from manifill.surface.curve_values import curve_graph, vertex_normals
+from manifill.mesh.graph import mesh_graph
+from manifill.surface.samples import Samples, snap_to_vertices
+from manifill.mesh.shapes import icosphere
+from manifill.mesh.topology import clean_mesh, mesh_info
 from manifill.validate import (
     UNIT_WINDOW,
     as_mesh,
@@ -347,18 +347,18 @@ def test_far_points_of_a_tiny_mesh_are_reported_not_crashed():
 # solids: voxelisation, tetrahedralisation, the harmonic fill
 # ---------------------------------------------------------------------------
 
-from manifill import gridsolver  # noqa: E402
+from manifill.linalg import gridmg as gridsolver  # noqa: E402
 from manifill.errors import ResourceError  # noqa: E402
-from manifill.solid import reconstruct_volume, reconstruct_volume_memory, surface_to_points  # noqa: E402
-from manifill.tets import (  # noqa: E402
+from manifill.solid.reconstruct_volume import reconstruct_volume, reconstruct_volume_memory, surface_to_points  # noqa: E402
+from manifill.solid.tets import (  # noqa: E402
     boundary_faces,
     tet_count,
     tet_volumes,
     tetrahedralize,
     tetrahedralize_memory,
 )
-from manifill.volume import VoxelFill, harmonic_fill, tet_fill  # noqa: E402
-from manifill.voxels import boundary_voxels, voxelize, voxelize_memory  # noqa: E402
+from manifill.solid.fill import VoxelFill, harmonic_fill, tet_fill  # noqa: E402
+from manifill.solid.voxels import boundary_voxels, voxelize, voxelize_memory  # noqa: E402
 
 _solid_reference = {}
 

@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial import Delaunay, cKDTree
 
 from conftest import icosphere
-from manifill.subdivide import loop_matrix, subdivide
+from manifill.mesh.subdivide import loop_matrix, subdivide
 
 
 def warren_beta(n):

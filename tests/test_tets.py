@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial import Delaunay
 
-import manifill.tets
+import manifill.solid.tets
 from manifill import HarmonicSolver, MeshError, OptionError
-from manifill.shapes import icosphere
-from manifill.tets import boundary_faces, tet_laplacian, tet_volumes, tetrahedralize
+from manifill.mesh.shapes import icosphere
+from manifill.solid.tets import boundary_faces, tet_laplacian, tet_volumes, tetrahedralize
 from manifill.validate import as_tets
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
@@ -597,12 +597,12 @@ def test_doctests():
     flags = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
     if not HAVE_TETGEN:
         pytest.skip("the tetrahedralize example needs tetgen")
-    result = doctest.testmod(manifill.tets, optionflags=flags)
+    result = doctest.testmod(manifill.solid.tets, optionflags=flags)
     assert result.attempted > 0 and result.failed == 0
 
 
 def test_surface_volume_is_the_volume_of_its_tets():
-    from manifill.tets import surface_volume
+    from manifill.solid.tets import surface_volume
 
     V, F = icosphere(2)
     TV, TT = tetrahedralize(V, F, max_volume=0.01)
@@ -620,7 +620,7 @@ def test_surface_volume_is_the_volume_of_its_tets():
 
 def test_surface_volume_matches_vtk():
     pv = pytest.importorskip("pyvista")
-    from manifill.tets import surface_volume
+    from manifill.solid.tets import surface_volume
 
     V, F = icosphere(3)
     V = V * [1.0, 0.5, 2.0]

@@ -5,10 +5,10 @@ import pytest
 
 from conftest import adjacency_dense, annulus, boundary_vertices, dense, edge_set, grid, icosphere, irregular, nonmanifold, torus, two_components
 from manifill import clean_mesh, harmonic, laplacian, mesh_info
-import manifill.topology as topology
+import manifill.mesh.topology as topology
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from manifill.topology import EdgeIndex, adjacency, boundary_loops, connected_components, edges
+from manifill.mesh.topology import EdgeIndex, adjacency, boundary_loops, connected_components, edges
 from manifill.validate import as_mesh, as_samples
 
 TET_V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])

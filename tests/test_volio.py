@@ -9,10 +9,10 @@ import meshio
 import numpy as np
 import pytest
 
-import manifill.volio
+import manifill.io.solids
 from manifill import ReadError, WriteError
-from manifill.shapes import icosphere
-from manifill.volio import read_mask, read_tets, read_vti, write_tets, write_vti
+from manifill.mesh.shapes import icosphere
+from manifill.io.solids import read_mask, read_tets, read_vti, write_tets, write_vti
 
 
 def one_line(info):
@@ -224,7 +224,7 @@ def test_failed_write_leaves_the_old_file(tmp_path, monkeypatch):
     def broken(*args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(manifill.volio.base64, "b64encode", broken)
+    monkeypatch.setattr(manifill.io.solids.base64, "b64encode", broken)
     with pytest.raises(WriteError) as info:
         write_vti(path, {"a": np.ones(SHAPE)})
     assert "No space left" in one_line(info)
@@ -343,7 +343,7 @@ def test_read_tets_of_a_triangle_mesh(tmp_path):
         read_tets(tmp_path / "tri.vtu")
     msg = one_line(info)
     assert "holds no tetrahedra" in msg and "triangle" in msg
-    assert not manifill.volio.has_tets(tmp_path / "tri.vtu")
+    assert not manifill.io.solids.has_tets(tmp_path / "tri.vtu")
 
 
 def test_read_tets_keeps_only_tets(tmp_path):
@@ -405,6 +405,6 @@ def test_failed_tet_write_leaves_nothing(tmp_path, monkeypatch):
 
 def test_doctests():
     cwd = os.getcwd()
-    result = doctest.testmod(manifill.volio, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    result = doctest.testmod(manifill.io.solids, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert os.getcwd() == cwd
     assert result.attempted > 0 and result.failed == 0

@@ -12,17 +12,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-import manifill.gridsolver
+import manifill.linalg.gridmg
 import manifill.memory
-import manifill.volume
+import manifill.solid.fill
 from manifill import ManifillError, OptionError, ResourceError, SampleError, SolveError, VoxelFill, harmonic_fill
-from manifill.gridsolver import GridMultigrid
+from manifill.linalg.gridmg import GridMultigrid
 from manifill.memory import check_fits, human
-from manifill.shapes import icosphere
-from manifill.solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
-from manifill.tets import boundary_faces, tet_laplacian, tetrahedralize
-from manifill.volume import fill_memory, tet_fill
-from manifill.voxels import boundary_voxels, voxel_centres, voxel_laplacian
+from manifill.mesh.shapes import icosphere
+from manifill.solid.reconstruct_volume import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
+from manifill.solid.tets import boundary_faces, tet_laplacian, tetrahedralize
+from manifill.solid.fill import fill_memory, tet_fill
+from manifill.solid.voxels import boundary_voxels, voxel_centres, voxel_laplacian
 
 hsettings = settings(max_examples=25, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -103,7 +103,7 @@ def assert_close(x, ref, tol):
 @pytest.fixture
 def few_levels(monkeypatch):
     """Coarsen small grids too, so that the V-cycle (not only the coarse LU) runs on them."""
-    monkeypatch.setattr(manifill.gridsolver, "COARSE_MAX", 40)
+    monkeypatch.setattr(manifill.linalg.gridmg, "COARSE_MAX", 40)
 
 
 # ---------------------------------------------------------------------------
@@ -493,8 +493,8 @@ def test_multigrid_that_does_not_converge():
 def test_refused_when_memory_would_not_fit(monkeypatch, solver):
     built = []
     monkeypatch.setattr(manifill.memory, "available_bytes", lambda: 1000)
-    monkeypatch.setattr(manifill.volume, "GridMultigrid", lambda *a, **k: built.append("multigrid"))
-    monkeypatch.setattr(manifill.volume, "voxel_laplacian", lambda *a, **k: built.append("laplacian"))
+    monkeypatch.setattr(manifill.solid.fill, "GridMultigrid", lambda *a, **k: built.append("multigrid"))
+    monkeypatch.setattr(manifill.solid.fill, "voxel_laplacian", lambda *a, **k: built.append("laplacian"))
     with pytest.raises(ResourceError) as info:
         harmonic_fill(MASK, FIXED, VALUES, solver=solver)
     msg = one_line(info)
@@ -875,6 +875,6 @@ def test_reconstruct_volume_mask_bad_mask():
 
 
 def test_doctests():
-    for module in (manifill.volume, manifill.memory):
+    for module in (manifill.solid.fill, manifill.memory):
         result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
         assert result.attempted > 0 and result.failed == 0

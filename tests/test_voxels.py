@@ -9,10 +9,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import manifill.voxels
+import manifill.solid.voxels
 from manifill import MeshError, OptionError, SampleError
-from manifill.shapes import icosphere
-from manifill.voxels import (
+from manifill.mesh.shapes import icosphere
+from manifill.solid.voxels import (
     as_connectivity,
     as_spacing,
     boundary_voxels,
@@ -371,13 +371,13 @@ def test_voxelize_bad_resolution(bad):
 
 
 def test_doctests():
-    result = doctest.testmod(manifill.voxels, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    result = doctest.testmod(manifill.solid.voxels, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0
 
 
 @pytest.mark.parametrize("res, stretch", [(8, (1.0, 1.0, 1.0)), (17, (1.0, 0.4, 2.5)), (30, (0.3, 1.0, 0.7))])
 def test_voxel_grid_is_the_grid_voxelize_uses(res, stretch):
-    from manifill.voxels import voxel_grid
+    from manifill.solid.voxels import voxel_grid
 
     V, F = icosphere(2)
     V = V * stretch + [3.0, -1.0, 0.5]

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from manifill import ReadError, WriteError
-from manifill.shapes import icosphere
-from manifill.vtklegacy import read_legacy, write_legacy
+from manifill.mesh.shapes import icosphere
+from manifill.io.vtklegacy import read_legacy, write_legacy
 
 
 def one_line(info, path):

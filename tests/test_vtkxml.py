@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from manifill import ReadError, WriteError
-from manifill.shapes import icosphere
-from manifill.vtkxml import read_imagedata, read_polydata, write_imagedata, write_polydata
+from manifill.mesh.shapes import icosphere
+from manifill.io.vtkxml import read_imagedata, read_polydata, write_imagedata, write_polydata
 
 pv = pytest.importorskip("pyvista")
 vtk = pytest.importorskip("vtk")

@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .harmonic import HarmonicSolver
-from .reconstruct import reconstruct
+from .surface.harmonic import HarmonicSolver
+from .surface.reconstruct import reconstruct
 from .errors import WriteError
-from .io import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, write_mesh
-from .shapes import great_circle_vertices, icosphere
+from .io.registry import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, write_mesh
+from .mesh.shapes import great_circle_vertices, icosphere
 
 __all__ = ["run_demo", "demo_field"]
 
@@ -158,9 +158,9 @@ def _example_mesh(name, levels):
     """A mesh that ships inside pyvista, welded and Loop-subdivided, centred and scaled to unit diagonal."""
     import pyvista.examples as ex
 
-    from .io import read_mesh
-    from .subdivide import subdivide
-    from .topology import clean_mesh
+    from .io.registry import read_mesh
+    from .mesh.subdivide import subdivide
+    from .mesh.topology import clean_mesh
     from .validate import bbox_diagonal
 
     V, F = read_mesh(Path(ex.__file__).with_name(name))
@@ -188,9 +188,9 @@ def paper_figures(out):
     ImportError
         Without pyvista.
     """
-    from .render import render_panels, render_slices
-    from .solid import reconstruct_volume
-    from .viewer import write_html
+    from .viz.render import render_panels, render_slices
+    from .solid.reconstruct_volume import reconstruct_volume
+    from .viz.viewer import write_html
 
     _ = __import__("pyvista")
     out = Path(out)

@@ -354,7 +354,7 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
     >>> V.shape, F.dtype
     ((3, 3), dtype('int64'))
     """
-    from .meshobj import mesh_arrays
+    from .mesh.objects import mesh_arrays
 
     V, F = mesh_arrays(V, F)
     V = _as_vertices(V)
@@ -425,7 +425,7 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
     >>> V.dtype, T.shape, T.dtype
     (dtype('float64'), (1, 4), dtype('int64'))
     """
-    from .meshobj import tet_arrays
+    from .mesh.objects import tet_arrays
 
     V, T = tet_arrays(V, T)
     V3 = _as_vertices(V)

@@ -26,8 +26,8 @@ def add_parser(sub):
 
 def run(args):
     """``manifill check MESH SAMPLES``: exit 0 if the condition holds, 1 if not."""
-    from ..geodesic import mesh_graph
-    from ..gradual import check_gradual
+    from ..mesh.graph import mesh_graph
+    from ..surface.gradual import check_gradual
     from ..validate import as_mesh
 
     V, F, S = load(args)

@@ -3,7 +3,7 @@
 All outputs of one command (``-o``, ``--render``, ``--html``) are checked before
 anything is read or computed: a known extension, an existing and writable folder,
 no output equal to an input or to another output. Results are written with
-manifill's mask arrays under their fixed names (:data:`manifill.io.SAMPLE_MASK`,
+manifill's mask arrays under their fixed names (:data:`manifill.io.registry.SAMPLE_MASK`,
 ...), and a line says where a format hides the fields from a common reader.
 """
 
@@ -26,12 +26,12 @@ def load(args):
     Returns
     -------
     V, F : numpy arrays
-    S : manifill.samples.Samples
+    S : manifill.surface.samples.Samples
     """
-    from ..io import read_mesh_file
-    from ..sampleio import read_samples
-    from ..samples import Samples
-    from ..topology import clean_mesh
+    from ..io.registry import read_mesh_file
+    from ..io.samples import read_samples
+    from ..surface.samples import Samples
+    from ..mesh.topology import clean_mesh
 
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
@@ -123,7 +123,7 @@ def check_outputs(outputs, inputs):
 
 def write_surface(out, V, F, fields, masks):
     """Write fields plus manifill's masks to a mesh file, saying what the format renamed or hides."""
-    from ..io import format_note, write_mesh
+    from ..io.registry import format_note, write_mesh
 
     written = write_mesh(out, V, F, {**fields, **masks})
     renamed = {a: b for a, b in written.items() if a != b}
@@ -178,12 +178,12 @@ def pictures(args, V, F, X, names, samples=None, curves=None, title=None):
     field = chosen_field(args, names)
     fields = {name: X[:, j] for j, name in enumerate(names)}
     if getattr(args, "render", None):
-        from ..render import render
+        from ..viz.render import render
 
         render(V, F, fields[field], args.render, samples=samples, curves=curves, title=title or field, name=field)
         print(f"rendered {args.render} ({field})")
     if getattr(args, "html", None):
-        from ..viewer import write_html
+        from ..viz.viewer import write_html
 
         write_html(args.html, V, F, fields, field=field, samples=samples, curves=curves,
                    title=title or "manifill")
@@ -198,8 +198,8 @@ def err(msg):
 
 def surface_outputs(args, pictures=True):
     """-o (and --render/--html) of a surface command, checked before any work."""
-    from ..io import MESH_FORMATS
-    from ..sampleio import VALUE_FORMATS
+    from ..io.registry import MESH_FORMATS
+    from ..io.samples import VALUE_FORMATS
 
     meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
     outs = [("-o", args.output, meshes + VALUE_FORMATS)]
@@ -211,7 +211,7 @@ def surface_outputs(args, pictures=True):
 
 def check_names(args, S, out):
     """The field names against the output's format and manifill's masks, and --field, before the work."""
-    from ..io import check_field_names
+    from ..io.registry import check_field_names
 
     check_field_names(S.names, out)
     chosen_field(args, S.names)
@@ -219,7 +219,7 @@ def check_names(args, S, out):
 
 def masks(n, idx, **extra):
     """manifill's mask arrays of a surface result, under their fixed names."""
-    from ..io import SAMPLE_MASK
+    from ..io.registry import SAMPLE_MASK
 
     sample = np.zeros(n, dtype=bool)
     sample[idx] = True

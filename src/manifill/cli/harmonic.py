@@ -2,7 +2,7 @@
 
 import time
 
-from ..harmonic import HarmonicSolver
+from ..surface.harmonic import HarmonicSolver
 from .common import check_names, load, masks, pictures, print_ranges, surface_outputs, write_surface
 from .options import fill_args, output_args, picture_args, sample_args
 
@@ -23,7 +23,7 @@ def add_parser(sub):
 
 def run(args):
     """``manifill harmonic MESH SAMPLES -o OUT``."""
-    from ..sampleio import VALUE_FORMATS, write_values
+    from ..io.samples import VALUE_FORMATS, write_values
 
     out = surface_outputs(args)
     ext = out.suffix.lower()

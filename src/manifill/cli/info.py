@@ -20,8 +20,8 @@ def add_parser(sub):
 
 def run(args):
     """``manifill info MESH``."""
-    from ..io import read_mesh
-    from ..topology import mesh_info
+    from ..io.registry import read_mesh
+    from ..mesh.topology import mesh_info
 
     V, F = read_mesh(args.mesh)
     info = mesh_info(V, F)

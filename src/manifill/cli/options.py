@@ -1,12 +1,12 @@
 """The options several subcommands share, defined once."""
 
-from ..curves import CURVE_VALUES
-from ..geodesic import DISTANCES
-from ..harmonic import ON_EMPTY
-from ..laplacian import WEIGHTS
-from ..partition import PARTITIONS
-from ..reconstruct import METHODS
-from ..solvers import SOLVERS
+from ..surface.curve_values import CURVE_VALUES
+from ..mesh.graph import DISTANCES
+from ..surface.harmonic import ON_EMPTY
+from ..mesh.laplacian import WEIGHTS
+from ..surface.partition import PARTITIONS
+from ..surface.reconstruct import METHODS
+from ..linalg.backends import SOLVERS
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args",
            "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]

@@ -26,15 +26,15 @@ def add_parser(sub):
 
 def run(args):
     """``manifill reconstruct MESH SAMPLES -o OUT``."""
-    from ..io import CURVE_MASK, PATCH_LABEL
-    from ..reconstruct import reconstruct
-    from ..sampleio import VALUE_FORMATS, write_values
+    from ..io.registry import CURVE_MASK, PATCH_LABEL
+    from ..surface.reconstruct import reconstruct
+    from ..io.samples import VALUE_FORMATS, write_values
 
     out = surface_outputs(args)
     V, F, S = load(args)
     check_names(args, S, out)
     if args.subdivide:
-        from ..subdivide import check_subdivide
+        from ..mesh.subdivide import check_subdivide
 
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
     bar = step_bar(args, 5)
@@ -46,7 +46,7 @@ def run(args):
         bar.close()
     X = r.values if r.values.ndim == 2 else r.values[:, None]
     if args.subdivide:
-        from ..subdivide import subdivide
+        from ..mesh.subdivide import subdivide
 
         V2, F2, X2 = subdivide(V, F, X, levels=args.subdivide)
         if out.suffix.lower() in VALUE_FORMATS:

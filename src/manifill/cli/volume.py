@@ -64,7 +64,7 @@ def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
     from .common import check_outputs, levels, step_bar
     from ..errors import ReadError, WriteError
-    from ..volio import GRID_FORMATS, TET_FORMATS, has_tets
+    from ..io.solids import GRID_FORMATS, TET_FORMATS, has_tets
 
     src = Path(args.mesh).suffix.lower()
     if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
@@ -101,11 +101,11 @@ def _check_samples(args, S):
 
 def _volume_run(args, kind, form, surface_opts):
     """Read the solid and the samples, run Steps 1-8; print what was read."""
-    from ..io import read_mesh_file
-    from ..sampleio import read_samples
-    from ..solid import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
-    from ..tets import boundary_faces
-    from ..volio import read_mask, read_tets
+    from ..io.registry import read_mesh_file
+    from ..io.samples import read_samples
+    from ..solid.reconstruct_volume import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
+    from ..solid.tets import boundary_faces
+    from ..io.solids import read_mask, read_tets
 
     if kind == "mask":
         mask, h, o = read_mask(args.mesh, field=args.mask_field)
@@ -146,9 +146,9 @@ def _volume_run(args, kind, form, surface_opts):
 def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
     from .common import chosen_field, print_time
-    from ..io import BOUNDARY_MASK, SAMPLE_MASK
-    from ..tets import boundary_faces
-    from ..volio import write_tets, write_vti
+    from ..io.registry import BOUNDARY_MASK, SAMPLE_MASK
+    from ..solid.tets import boundary_faces
+    from ..io.solids import write_tets, write_vti
 
     X = r.values if r.values.ndim == (4 if form == "voxels" else 2) else r.values[..., None]
     fields = {name: X[..., j] for j, name in enumerate(S.names)}
@@ -173,11 +173,11 @@ def _volume_write(args, out, ext, r, S, form):
     j = S.names.index(chosen_field(args, S.names))
     if getattr(args, "render", None):
         if form == "voxels":
-            from ..render import render_slices
+            from ..viz.render import render_slices
 
             render_slices(X[..., j], r.spacing, r.origin, args.render, name=S.names[j])
         else:
-            from ..render import render
+            from ..viz.render import render
 
             render(r.TV, boundary_faces(r.TT), X[:, j], args.render, name=S.names[j], title="boundary of the solid")
         print(f"rendered {args.render} ({S.names[j]})")

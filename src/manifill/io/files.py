@@ -1,0 +1,193 @@
+"""Files on disk: atomic writes, suffix checks, and one guard that turns a damaged file into one line.
+
+Every reader of manifill runs its parser inside :func:`reading`, so that whatever a
+truncated, mutated or lying file makes a third-party parser raise ends as a
+:class:`~manifill.errors.ReadError` naming the file and the fix, and so that the
+parsers' own warnings (meshio's overflow warning on every ASCII STL, nibabel's
+notes) never reach the user. A small file whose header claims billions of items is
+"damaged", never "out of memory": :func:`check_count` compares claimed counts with
+the bytes the file has before anything is allocated.
+"""
+
+import io
+import logging
+import os
+import traceback
+import warnings
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
+from pathlib import Path
+
+from ..errors import ManifillError, ReadError, WriteError
+
+__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file"]
+
+#: loggers of the parsers that print their notes through handlers of their own
+_PARSER_LOGGERS = ("nibabel",)
+
+def suffix(path, allowed, what):
+    """The lower-case extension of ``path``, checked against ``allowed``.
+
+    Parameters
+    ----------
+    path : str or Path
+    allowed : sequence of str
+        Extensions with their dot (``'.vtu'``).
+    what : str
+        ``'read'`` or ``'write'`` (chooses the error class and the message).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ReadError or WriteError
+        An extension not in ``allowed``.
+    """
+    ext = Path(path).suffix.lower()
+    if ext not in allowed:
+        raise (WriteError if what.startswith("write") else ReadError)(
+            f"{Path(path).name}: cannot {what} '{ext or '(no extension)'}' files; use one of {', '.join(allowed)}"
+        )
+    return ext
+
+
+def check_input_file(path):
+    """Raise :class:`ReadError` unless ``path`` is an existing regular file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ReadError(f"{path}: no such file" if not path.exists() else f"{path}: not a file; pass a file")
+
+
+@contextmanager
+def reading(path, kind):
+    """Run a parser on ``path``; any failure of a malformed file becomes one :class:`ReadError`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file being read (named in the message).
+    kind : str
+        What it should be (``'PLY mesh'``), for the message.
+
+    Raises
+    ------
+    ReadError
+        Instead of whatever the parser raised on a malformed file; manifill's
+        own errors pass through unchanged.
+    """
+    name = Path(path).name
+    try:
+        with quiet():
+            try:
+                yield
+            except Exception as exc:
+                # a file the parser left open is closed here, its ResourceWarning ignored, not at a later collection
+                traceback.clear_frames(exc.__traceback__)
+                raise
+    except ManifillError:
+        raise
+    except MemoryError:
+        raise ReadError(f"{name}: not a readable {kind}: its header asks for more memory than there is, so the "
+                        f"file is damaged; check or re-export it") from None
+    except Exception as exc:  # noqa: BLE001 - the parsers raise anything (zipfile, struct, meshio, nibabel...)
+        raise ReadError(f"{name}: not a readable {kind} ({_one_line(exc)}); check or re-export the file") from None
+
+
+@contextmanager
+def quiet():
+    """Keep a third-party parser's or writer's notes from the user.
+
+    Its warnings, what it prints itself (meshio writes notes to stderr) and the
+    log lines of parsers with handlers of their own (nibabel) go nowhere.
+    """
+    with warnings.catch_warnings(), redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()), \
+            _silent_loggers():
+        warnings.simplefilter("ignore")
+        yield
+
+
+@contextmanager
+def _silent_loggers():
+    """Mute the loggers of parsers that print through handlers of their own (nibabel's header checks)."""
+    loggers = [logging.getLogger(name) for name in _PARSER_LOGGERS]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
+
+def _one_line(exc):
+    text = " ".join(str(exc).split())
+    text = text[:160] + "..." if len(text) > 160 else text
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def check_count(count, path, what, *, bytes_each, start=0):
+    """Refuse a header count that the rest of the file cannot hold.
+
+    Parameters
+    ----------
+    count : int
+        The count the header claims.
+    path : str or Path
+        The file.
+    what : str
+        What is counted (``'vertices'``).
+    bytes_each : float
+        The fewest bytes one item takes (e.g. 2 for an ASCII number and its
+        separator, 24 for three binary doubles).
+    start : int, optional
+        Where the counted items begin in the file.
+
+    Raises
+    ------
+    ReadError
+        A negative count, or more items than the remaining bytes can hold.
+    """
+    size = os.path.getsize(path)
+    if count < 0:
+        raise ReadError(f"{Path(path).name}: the header claims {count} {what}; the file is damaged, check it")
+    if count * bytes_each > size - start:
+        raise ReadError(f"{Path(path).name}: the header claims {count:,} {what} but only {max(size - start, 0):,} "
+                        f"bytes follow; the file is truncated or damaged, check it")
+
+
+@contextmanager
+def atomic_path(path):
+    """A temporary path beside ``path`` that replaces it on success.
+
+    Parameters
+    ----------
+    path : str or Path
+        Final destination.
+
+    Yields
+    ------
+    Path
+        Where to write; renamed to ``path`` when the block completes, removed
+        if it raises (an interruption included: the old file stays as it was).
+
+    Raises
+    ------
+    WriteError
+        If the destination folder does not exist.
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise WriteError(f"folder {path.parent} does not exist; create it first or choose another output path")
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        yield tmp
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise WriteError(f"{path.name}: could not replace the file ({exc.strerror or exc}); check the "
+                             f"folder's permissions and free space") from None
+    finally:
+        if tmp.exists():
+            tmp.unlink()

@@ -1,0 +1,331 @@
+"""Samples and per-vertex values on disk.
+
+Sample files
+------------
+CSV
+    A header, then one row per sample. Either ``vertex,value[,value2...]``
+    (0-based vertex indices) or ``x,y,z,value[,...]`` (positions, snapped to the
+    nearest vertex). The value columns keep their header names.
+NPZ
+    Arrays ``idx`` (or ``points``) and ``vals`` (``(k,)`` or ``(k, p)``), and
+    optionally ``names``.
+NPY
+    A structured array whose field names follow the CSV header rules.
+Per-vertex data (the ``[neuro]`` extra)
+    GIfTI ``.func.gii`` / ``.shape.gii`` arrays, FreeSurfer morphometry files
+    (``lh.thickness``, ``lh.curv``, ...), MGH/MGZ: one value per vertex, NaN
+    where nothing was measured; the finite entries are the samples. FreeSurfer
+    ``.label`` files: vertex numbers with one value each.
+
+Values are written as CSV (``vertex,name...``) or NPY. Damaged files end in one
+:class:`~manifill.errors.ReadError` naming the file: a lying NPY header or a
+damaged ZIP member is caught before anything is allocated.
+"""
+
+import csv
+import os
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshError, ReadError, SampleError, WriteError
+from .files import atomic_path, check_input_file, reading, suffix
+from ..surface.samples import Samples, field_names
+
+__all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "read_samples", "write_values"]
+
+VALUE_FORMATS = (".csv", ".npy")
+SAMPLE_FORMATS = (".csv", ".npz", ".npy", ".gii", ".mgh", ".mgz", ".label")
+_VERTEX_COLUMNS = ("vertex", "idx", "index", "vertex_id", "id")
+
+
+def _split_header(header, path):
+    cols = [h.strip().lower() for h in header]
+    if len(cols) >= 2 and cols[0] in _VERTEX_COLUMNS:
+        return "vertex", 1
+    if len(cols) >= 4 and cols[:3] == ["x", "y", "z"]:
+        return "points", 3
+    raise ReadError(
+        f"{Path(path).name}: header {','.join(header)!r} is neither 'vertex,value[,...]' nor "
+        f"'x,y,z,value[,...]'; add such a header line"
+    )
+
+
+def _sample_kind(path):
+    """Which reader a sample file needs: by extension, else a FreeSurfer morphometry file by magic number."""
+    from .neuro import MORPH_SUFFIXES, sniff
+
+    ext = Path(path).suffix.lower()
+    if ext in SAMPLE_FORMATS:
+        return ext
+    if ext in MORPH_SUFFIXES or (Path(path).is_file() and sniff(path) == "freesurfer-morph"):
+        return "morph"
+    return suffix(path, SAMPLE_FORMATS + ("(FreeSurfer lh.thickness, ...)",), "read")
+
+
+def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None):
+    """Read samples, snapping positions to vertices.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (see the module docstring for the layouts).
+    V : (n, 3) numpy array
+        Vertex positions of the mesh the samples belong to.
+    duplicates : {'error', 'mean'}, optional
+        Several samples on one vertex with different values: raise, or average.
+    max_distance : float, optional
+        Largest accepted snap distance for positions (see
+        :func:`manifill.surface.samples.snap_to_vertices`).
+    vertex_numbering : str, optional
+        Why the mesh's vertex numbers are not the file's (e.g. an STL, whose
+        reader renumbers): samples by vertex index are then refused with this
+        reason (:attr:`manifill.io.registry.MeshFile.vertex_numbering`).
+
+    Returns
+    -------
+    Samples
+        Unique vertex indices, values, field names and snap distances.
+
+    Raises
+    ------
+    ReadError
+        Missing file, unknown extension, bad header, non-numeric cells (the
+        line and column are named), a damaged file.
+    SampleError
+        Out-of-range indices, NaN values, far-away positions ("wrong units?"),
+        conflicting duplicates, vertex indices on a mesh that was renumbered.
+    MeshError
+        Positions given for a mesh whose points are not all finite.
+    """
+    path = Path(path)
+    kind = _sample_kind(path)
+    check_input_file(path)
+    n = len(V)
+    if kind == ".csv":
+        kind, table, names = _read_csv(path)
+    elif kind == ".npz":
+        kind, table, names = _read_npz(path)
+    elif kind == ".npy":
+        kind, table, names = _read_structured_npy(path)
+    elif kind == ".label":
+        from .neuro import read_label
+
+        idx, vals = read_label(path)
+        if len(idx) == 0:
+            raise ReadError(f"{path.name}: a label file without vertices; check the file")
+        kind, table, names = "vertex", np.column_stack([idx, vals]), [path.name.split(".label")[0]]
+    else:
+        kind, table, names = _read_vertex_data(path, n)
+    if kind == "vertex":
+        if vertex_numbering:
+            raise SampleError(f"{vertex_numbering}; give the samples as positions (x,y,z,value) instead")
+        col = table[:, 0]
+        if np.any(np.abs(col) >= 2.0**62):
+            row = int(np.flatnonzero(np.abs(col) >= 2.0**62)[0])
+            raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is far too large")
+        if not np.all(col == np.round(col)):
+            row = int(np.flatnonzero(col != np.round(col))[0])
+            raise ReadError(f"{path.name}: vertex index {col[row]:g} in data row {row + 1} is not an integer")
+    if kind != "vertex" and not np.isfinite(np.asarray(V, dtype=np.float64)).all():
+        bad = int(np.flatnonzero(~np.isfinite(np.asarray(V, dtype=np.float64)).all(axis=1))[0])
+        raise MeshError(f"{path.name}: its positions cannot be snapped to a mesh with NaN or infinite coordinates "
+                        f"(vertex {bad}); fix the mesh's points")
+    try:
+        if kind == "vertex":
+            return Samples.from_indices(col.astype(np.int64), table[:, 1:], n, names=names, duplicates=duplicates)
+        return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
+                                   max_distance=max_distance)
+    except SampleError as exc:  # the file's samples are wrong: the message names the file
+        msg = str(exc)
+        raise SampleError(msg if msg.startswith(f"{path.name}:") else f"{path.name}: {msg}") from None
+
+
+def _read_vertex_data(path, n):
+    """Per-vertex data (NaN = not measured) as vertex-indexed samples."""
+    from .neuro import read_vertex_data
+
+    values, names = read_vertex_data(path, n)
+    known = np.isfinite(values)
+    rows = known.all(axis=1)
+    mixed = known.any(axis=1) & ~rows
+    if mixed.any():
+        raise SampleError(f"{path.name}: vertex {int(np.flatnonzero(mixed)[0])} has a value in some arrays and NaN "
+                          f"in others; every array must be measured at the same vertices (split the file)")
+    if not rows.any():
+        raise SampleError(f"{path.name}: every value is NaN; mark the measured vertices with numbers")
+    idx = np.flatnonzero(rows)
+    return "vertex", np.column_stack([idx, values[idx]]), names
+
+
+def _read_csv(path):
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            rows, lineno = [], []
+            for r in reader:
+                if r and any(c.strip() for c in r):
+                    rows.append(r)
+                    lineno.append(reader.line_num)
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ReadError(f"{path.name}: could not read as CSV ({exc}); save it as UTF-8 text") from None
+    if not rows:
+        raise ReadError(f"{path.name}: empty file; expected a header and one row per sample")
+    header = rows[0]
+    kind, ncoord = _split_header(header, path)
+    if len(rows) == 1:
+        raise ReadError(f"{path.name}: a header but no samples; add one row per sample")
+    table = np.empty((len(rows) - 1, len(header)))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise ReadError(f"{path.name}: line {lineno[i + 1]} has {len(row)} fields, the header {len(header)}")
+        for j, cell in enumerate(row):
+            try:
+                table[i, j] = float(cell)
+            except ValueError:
+                raise ReadError(
+                    f"{path.name}: line {lineno[i + 1]}, column {header[j].strip()!r}: {cell!r} is not a real number"
+                ) from None
+    bad = ~np.isfinite(table).all(axis=1)
+    if bad.any():
+        lines = ", ".join(str(lineno[int(r) + 1]) for r in np.flatnonzero(bad)[:5])
+        raise SampleError(f"{path.name}: NaN or infinite values on lines {lines}; remove or fix those samples")
+    return kind, table, [h.strip() for h in header[ncoord:]]
+
+
+def _npy_header(fh, name, size):
+    """Shape and dtype from an NPY header, checked against the bytes that follow."""
+    version = np.lib.format.read_magic(fh)
+    if version not in ((1, 0), (2, 0), (3, 0)):
+        raise ReadError(f"{name}: NPY format version {version[0]}.{version[1]} is not 1.0, 2.0 or 3.0; the file is "
+                        f"damaged")
+    # the header's own length first: numpy reads that many bytes at once, 4 GB if the file says so
+    start = fh.tell()
+    width = 2 if version == (1, 0) else 4
+    length = int.from_bytes(fh.read(width), "little")
+    fh.seek(start)
+    if length > size - start - width:
+        raise ReadError(f"{name}: the header claims {length:,} header bytes but only {max(size - start - width, 0):,} "
+                        f"bytes follow; the file is truncated or damaged")
+    if version == (1, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+    else:
+        shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+    if dtype.hasobject:
+        raise ReadError(f"{name}: an array of Python objects; save numbers (numpy.save of a numeric array)")
+    need = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if need > size - fh.tell():
+        raise ReadError(f"{name}: the header claims {shape} {dtype} values ({need:,} bytes) but only "
+                        f"{size - fh.tell():,} bytes follow; the file is truncated or damaged")
+    return shape, dtype
+
+
+def _load_npy(path, kind="NPY array"):
+    """np.load of one ``.npy`` file whose header was checked first (``kind`` names it in messages)."""
+    with reading(path, kind):
+        with open(path, "rb") as fh:
+            _npy_header(fh, path.name, os.path.getsize(path))
+        return np.load(path, allow_pickle=False)
+
+
+def _load_npz(path):
+    """The arrays of a ``.npz`` archive, each member's header checked against its size first."""
+    with reading(path, "NPZ archive"):
+        with zipfile.ZipFile(path) as zf:
+            data = {}
+            for info in zf.infolist():
+                if not info.filename.endswith(".npy"):
+                    continue
+                with zf.open(info) as fh:
+                    _npy_header(fh, f"{path.name} ({info.filename})", info.file_size)
+                with zf.open(info) as fh:
+                    data[info.filename[:-4]] = np.lib.format.read_array(fh, allow_pickle=False)
+    return data
+
+
+def _numeric(arr, what, path):
+    arr = np.asarray(arr)
+    if np.iscomplexobj(arr):
+        raise SampleError(f"{path.name}: {what} holds complex numbers; pass real values (e.g. their .real or abs)")
+    if not (arr.dtype == bool or np.issubdtype(arr.dtype, np.number)):
+        raise ReadError(f"{path.name}: {what} is {arr.dtype}, not numbers; pass a numeric array")
+    return arr.astype(np.float64)
+
+
+def _read_npz(path):
+    data = _load_npz(path)
+    if "vals" not in data or not ({"idx", "points"} & set(data)):
+        raise ReadError(f"{path.name}: needs arrays 'vals' and 'idx' (or 'points'); found {sorted(data)}")
+    key = "idx" if "idx" in data else "points"
+    vals = _numeric(data["vals"], "'vals'", path)
+    loc = _numeric(data[key], f"'{key}'", path)
+    vals = vals[:, None] if vals.ndim == 1 else vals
+    names = [str(s) for s in np.asarray(data["names"]).ravel()] if "names" in data else None
+    want = "(k,)" if key == "idx" else "(k, 3)"
+    if vals.ndim != 2 or loc.ndim != (1 if key == "idx" else 2) or len(loc) != len(vals) or (
+            key == "points" and loc.shape[1] != 3):
+        raise ReadError(f"{path.name}: '{key}' has shape {loc.shape} and 'vals' {vals.shape}; pass '{key}' "
+                        f"as {want} and 'vals' as (k,) or (k, p) with one row per sample")
+    if len(vals) == 0:
+        raise ReadError(f"{path.name}: no samples (empty arrays); pass at least one")
+    return ("vertex" if key == "idx" else "points"), np.column_stack([loc, vals]), names
+
+
+def _read_structured_npy(path):
+    arr = _load_npy(path)
+    if arr.dtype.names is None:
+        raise ReadError(
+            f"{path.name}: a plain array has no column names; save a structured array with fields "
+            f"vertex (or x, y, z) and the values, or an .npz with 'idx' (or 'points') and 'vals'"
+        )
+    header = list(arr.dtype.names)
+    kind, ncoord = _split_header(header, path)
+    table = np.column_stack([_numeric(arr[h], f"field {h!r}", path).ravel() for h in header])
+    if len(table) == 0:
+        raise ReadError(f"{path.name}: no samples (an empty array); pass at least one")
+    bad = ~np.isfinite(table).all(axis=1)
+    if bad.any():
+        raise SampleError(f"{path.name}: NaN or infinite values in rows {np.flatnonzero(bad)[:5].tolist()}; "
+                          f"remove or fix those samples")
+    return kind, table, header[ncoord:]
+
+
+def write_values(path, values, names=None):
+    """Write per-vertex values as CSV (``vertex,name...``) or NPY, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.csv`` or ``.npy``.
+    values : (n,) or (n, p) numpy array
+        One row per vertex.
+    names : list of str, optional
+        Column names for CSV; ``value``, ``value2``, ... by default.
+
+    Raises
+    ------
+    WriteError
+        Unknown extension, missing folder, names CSV cannot hold, or a failed
+        write.
+    """
+    ext = suffix(path, VALUE_FORMATS, "write")
+    values = np.asarray(values, dtype=np.float64)
+    values = values[:, None] if values.ndim == 1 else values
+    if values.ndim != 2:
+        raise WriteError(f"values have shape {values.shape}; pass (n,) or (n, p) per-vertex values")
+    names = field_names(names, values.shape[1])
+    if ext == ".csv" and any(("," in nm or '"' in nm or "\n" in nm or "\r" in nm) for nm in names):
+        raise WriteError("a column name holds a comma, quote or line break; rename it for CSV")
+    with atomic_path(path) as tmp:
+        try:
+            if ext == ".npy":
+                with open(tmp, "wb") as fh:
+                    np.save(fh, values[:, 0] if values.shape[1] == 1 else values)
+            else:
+                table = np.column_stack([np.arange(len(values)), values])
+                fmt = ["%d"] + ["%.17g"] * values.shape[1]
+                np.savetxt(tmp, table, fmt=fmt, delimiter=",", header=",".join(["vertex", *names]), comments="",
+                           encoding="utf-8")
+        except OSError as exc:
+            raise WriteError(f"{Path(path).name}: could not write ({exc})") from None

@@ -1,0 +1,1 @@
+"""Surfaces as arrays: edges, topology, geometry, cleaning, Laplacians, graphs, built-in shapes, subdivision."""

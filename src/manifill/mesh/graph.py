@@ -1,0 +1,207 @@
+"""Distances on the mesh graph: shortest paths from many sources at once, Voronoi cells.
+
+The machinery under Step 1 (envelopes for the gradual variation condition) and
+Steps 2-3 (paths between samples, the geodesic Delaunay graph). Every function
+works on the mesh graph ``G`` of :func:`mesh_graph`, whose edge lengths realise
+one of the two distances:
+
+``hops``
+    Number of edges (the paper's graph distance).
+``length``
+    Sum of edge lengths along a path (approximating geodesics), in units of the
+    mesh's mean edge length, so that one unit is one typical edge and levels mean
+    the same as with ``hops`` on a regular mesh.
+"""
+
+from collections import namedtuple
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from .topology import EdgeIndex
+from ..validate import check_option, unit_scale
+
+__all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace"]
+
+DISTANCES = ("hops", "length")
+
+Voronoi = namedtuple("Voronoi", "p q length edge dist root pred")
+
+
+def mesh_graph(V, F, *, distance="hops", index=None):
+    """The mesh graph with edge lengths for the chosen distance.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions (validated).
+    F : (m, 3) numpy array of int
+        Triangles (validated).
+    distance : {'hops', 'length'}, optional
+        Edge length 1, or Euclidean edge length divided by the mean edge length.
+    index : manifill.mesh.topology.EdgeIndex, optional
+        The edge index of ``F``, when the caller has one already.
+
+    Returns
+    -------
+    (n, n) scipy.sparse.csr_array
+        Symmetric, positive off-diagonal weights, no diagonal.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import grid
+    >>> V, F = grid(3)
+    >>> G = mesh_graph(V, F)
+    >>> int(G.nnz), float(G.max())
+    (32, 1.0)
+    """
+    check_option("distance", distance, DISTANCES)
+    if index is None:
+        index = EdgeIndex(F, len(V))
+    E = index.E
+    if distance == "hops":
+        w = np.ones(len(E))
+    else:
+        w = np.zeros(len(E))
+        s = unit_scale(V)  # a power of two: squared lengths neither overflow nor underflow
+        Vs = V if s == 1.0 else V * (1.0 / s)
+        Vn = Vs - Vs.mean(axis=0)  # centred: lengths do not depend on a far origin
+        for k in range(3):
+            x = np.ascontiguousarray(Vn[:, k])
+            w += (x[E[:, 0]] - x[E[:, 1]]) ** 2
+        w = np.sqrt(w)
+        mean = w.mean() if w.size else 1.0
+        w = np.maximum(w / (mean if mean > 0 else 1.0), 1e-12)
+    return index.matrix(w)
+
+
+def offset_distances(G, sources, offsets):
+    """``min_q (offsets[q] + d(x, q))`` for every vertex ``x``, in one Dijkstra.
+
+    Parameters
+    ----------
+    G : (n, n) scipy sparse matrix
+        Graph with positive edge lengths (see :func:`mesh_graph`).
+    sources : (k,) numpy array of int
+        Source vertices ``q``.
+    offsets : (k,) numpy array of float
+        Start value of each source.
+
+    Returns
+    -------
+    dist : (n,) numpy array
+        The envelope; ``inf`` where no source is reachable.
+    root : (n,) int64 numpy array
+        Position in ``sources`` of the source attaining the minimum (``-1``
+        where unreachable).
+    pred : (n,) int numpy array
+        Predecessor of each vertex on its shortest path (``-9999`` where the
+        path starts, i.e. at a source that is its own root, and at unreachable
+        vertices): following it from ``x`` leads to ``sources[root[x]]``.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import grid
+    >>> V, F = grid(4)
+    >>> d, root, _ = offset_distances(mesh_graph(V, F), np.array([0, 15]), np.array([0.0, 10.0]))
+    >>> d[15], root[15]
+    (np.float64(3.0), np.int64(0))
+    """
+    n = G.shape[0]
+    sources = np.asarray(sources, dtype=np.int64)
+    offsets = np.asarray(offsets, dtype=np.float64)
+    base = float(offsets.min())
+    # a virtual vertex n joined to every source by an edge of positive length
+    first = offsets - base + 1.0
+    G = sp.csr_array(G)
+    order = np.argsort(sources)
+    indptr = np.concatenate([G.indptr, [G.indptr[-1] + sources.size]])
+    indices = np.concatenate([G.indices, sources[order].astype(G.indices.dtype)])
+    data = np.concatenate([G.data, first[order]])
+    Gs = sp.csr_array((data, indices, indptr), shape=(n + 1, n + 1))
+    dist, pred = csgraph.dijkstra(Gs, directed=True, indices=n, return_predecessors=True)
+    dist = dist[:n] + base - 1.0
+    pred = pred[:n].copy()
+    # the source each shortest path starts from: pointer jumping up the tree
+    hop = np.where(pred == n, np.arange(n), pred)
+    unreachable = pred < 0
+    hop[unreachable] = np.flatnonzero(unreachable)
+    while True:
+        nxt = hop[hop]
+        if np.array_equal(nxt, hop):
+            break
+        hop = nxt
+    where = np.full(n, -1, dtype=np.int64)
+    where[sources] = np.arange(sources.size)
+    root = where[hop]
+    root[unreachable] = -1
+    pred[pred == n] = -9999
+    return dist, root, pred
+
+
+def voronoi_pairs(G, sources):
+    """Pairs of sources whose Voronoi cells touch, with the shortest path between them.
+
+    One Dijkstra from all sources assigns every vertex to its nearest source;
+    every edge ``(u, v)`` between two cells gives a path source-``u``-``v``-source,
+    and per pair of cells the shortest such path is kept (the geodesic
+    Delaunay graph of the sources).
+
+    Parameters
+    ----------
+    G : (n, n) scipy sparse matrix
+        Graph with positive edge lengths.
+    sources : (k,) numpy array of int
+        Source vertices.
+
+    Returns
+    -------
+    Voronoi
+        A named tuple: ``p, q`` ((e,) int64 numpy arrays) positions in
+        ``sources`` of the two ends, ``p < q``; ``length`` (e,) the length of
+        the path through the best crossing edge (an upper bound of the
+        distance, usually equal to it); ``edge`` (e, 2) the crossing edge
+        ``(u, v)``, ``u`` in the cell of ``p``; and the Dijkstra result
+        ``dist``, ``root``, ``pred`` of :func:`offset_distances` with zero
+        offsets (``root`` labels the cells).
+    """
+    sources = np.asarray(sources, dtype=np.int64)
+    dist, root, pred = offset_distances(G, sources, np.zeros(sources.size))
+    G = sp.csr_array(G)
+    n = G.shape[0]
+    u = np.repeat(np.arange(n), np.diff(G.indptr))
+    v = G.indices.astype(np.int64)
+    ru, rv = root[u], root[v]
+    cross = (ru >= 0) & (rv >= 0) & (ru < rv)
+    u, v, ru, rv = u[cross], v[cross], ru[cross], rv[cross]
+    length = dist[u] + G.data[cross] + dist[v]
+    if length.size == 0:
+        e = np.empty(0, dtype=np.int64)
+        return Voronoi(e, e, np.empty(0), np.empty((0, 2), dtype=np.int64), dist, root, pred)
+    order = np.lexsort((length, rv, ru))
+    u, v, ru, rv, length = u[order], v[order], ru[order], rv[order], length[order]
+    first = np.ones(length.size, dtype=bool)
+    first[1:] = (ru[1:] != ru[:-1]) | (rv[1:] != rv[:-1])
+    return Voronoi(ru[first], rv[first], length[first], np.column_stack([u[first], v[first]]), dist, root, pred)
+
+
+def trace(pred, x):
+    """The vertices from ``x`` back to the source of its shortest path.
+
+    Parameters
+    ----------
+    pred : (n,) numpy array of int
+        Predecessors from :func:`offset_distances` (negative at sources).
+    x : int
+        Start vertex.
+
+    Returns
+    -------
+    (l,) int64 numpy array
+        ``x`` first, the source last.
+    """
+    path = [int(x)]
+    while pred[path[-1]] >= 0:
+        path.append(int(pred[path[-1]]))
+    return np.array(path, dtype=np.int64)

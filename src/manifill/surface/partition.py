@@ -1,0 +1,262 @@
+"""Steps 2-3 of the paper: cut the surface by curves through all samples into patches.
+
+Three ways to draw the curves, each a set of shortest paths between samples:
+
+``delaunay``
+    The paper's "geodesic-like partition" (its Sub-algorithm 2), made precise as
+    the geodesic Delaunay graph of the samples: one Dijkstra from all samples
+    grows their Voronoi cells, and two samples whose cells touch are joined by the
+    shortest path through the touching edge. Every patch is then a geodesic
+    polygon with samples at its corners.
+``cycle``
+    The paper's Sub-algorithm 1: samples are linked one by one (each to the
+    nearest one not yet linked) by shortest paths that avoid the curve drawn so
+    far where they can, and the chain is closed into a cycle back to the first.
+    Five samples on a sphere give one closed curve and two patches (Fig. 4.1).
+``tree``
+    A minimum-length variant (the paper's open problem 2): the minimum spanning
+    tree of the samples under geodesic distance, taken from the Delaunay graph.
+    Its complement is one patch whose boundary is the tree walked around on both
+    sides: the shortest network that reaches every sample.
+
+Pathological cases are handled, not left to the user: paths that overlap are
+merged (the network is a set of vertices), patches with no interior vertex simply
+do not appear, curves that do not separate the surface (on a torus, or a single
+open path) leave a patch bounded on both sides by the same curve, which the
+harmonic fill handles like any other. The report counts all of these.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from ..mesh.graph import trace, voronoi_pairs
+from ..mesh.topology import pattern_components
+from ..validate import check_option, unit_scale
+
+__all__ = ["PARTITIONS", "Partition", "partition"]
+
+PARTITIONS = ("delaunay", "cycle", "tree")
+
+
+@dataclass
+class Partition:
+    """Curves through the samples and the patches they cut out.
+
+    Attributes
+    ----------
+    curves : list of (l,) int64 numpy arrays
+        Ordered vertex paths, each from one sample to another.
+    ends : (c, 2) int64 numpy array
+        The samples at the two ends of each curve.
+    on_curve : (n,) bool numpy array
+        Vertices on some curve (all samples included).
+    labels : (n,) int64 numpy array
+        Patch of every vertex off the curves, numbered by decreasing size;
+        ``-1`` on the curves.
+    boundaries : list of (b,) int64 numpy arrays
+        For each patch, the curve vertices adjacent to it.
+    report : dict
+        ``method``, ``curves``, ``curve_vertices``, ``curve_length`` (sum of
+        the edge lengths of the network, in the graph's units), ``patches``,
+        ``patch_sizes`` (largest first), ``inner_points`` (vertices off the
+        curves), ``balance`` (largest patch over the mean), ``merged_vertices``
+        (path vertices shared by two or more curves).
+    """
+
+    curves: list
+    ends: np.ndarray
+    on_curve: np.ndarray
+    labels: np.ndarray
+    boundaries: list
+    report: dict = field(default_factory=dict)
+    _edges: np.ndarray = field(default=None, init=False, repr=False)
+
+    def curve_edges(self):
+        """Unique edges ``(i, j)``, ``i < j``, of the curve network, as an (e, 2) array."""
+        if self._edges is None:
+            self._edges = self._curve_edges()
+        return self._edges
+
+    def _curve_edges(self):
+        if not self.curves:
+            return np.empty((0, 2), dtype=np.int64)
+        E = np.concatenate([np.column_stack([c[:-1], c[1:]]) for c in self.curves if len(c) > 1] or
+                           [np.empty((0, 2), dtype=np.int64)])
+        E.sort(axis=1)
+        if not len(E):
+            return E
+        m = int(E.max()) + 1
+        key = np.unique(E[:, 0] * m + E[:, 1])
+        return np.column_stack([key // m, key % m])
+
+
+def _path_between(pred, u, v):
+    """Source-of-u ... u, v ... source-of-v, from one multi-source Dijkstra."""
+    return np.concatenate([trace(pred, u)[::-1], trace(pred, v)])
+
+
+def _delaunay_paths(G, idx):
+    vor = voronoi_pairs(G, idx)
+    curves = [_path_between(vor.pred, u, v) for u, v in vor.edge]
+    return curves, np.column_stack([idx[vor.p], idx[vor.q]]) if len(vor.p) else np.empty((0, 2), np.int64), vor
+
+
+def _tree_paths(G, idx):
+    vor = voronoi_pairs(G, idx)
+    k = idx.size
+    if len(vor.p) == 0:
+        return [], np.empty((0, 2), np.int64)
+    W = sp.csr_array((vor.length, (vor.p, vor.q)), shape=(k, k))
+    T = csgraph.minimum_spanning_tree(W).tocoo()
+    keep = {(min(a, b), max(a, b)) for a, b in zip(T.row.tolist(), T.col.tolist())}
+    sel = [j for j, (a, b) in enumerate(zip(vor.p.tolist(), vor.q.tolist())) if (a, b) in keep]
+    curves = [_path_between(vor.pred, *vor.edge[j]) for j in sel]
+    return curves, np.column_stack([idx[vor.p[sel]], idx[vor.q[sel]]])
+
+
+def _cycle_paths(V, G, idx):
+    """Nearest-neighbour chain of the samples by shortest paths, closed into a cycle."""
+    k = idx.size
+    G = sp.csr_array(G, copy=True)
+    # entries of G by column, to make vertices on the curve expensive to cross
+    by_col = np.argsort(G.indices, kind="stable")
+    colptr = np.concatenate([[0], np.cumsum(np.bincount(G.indices, minlength=G.shape[0]))])
+    penalty = 1e6 * float(G.data.sum() + 1.0)
+
+    def block(vertices):
+        for v in vertices:
+            G.data[by_col[colptr[v]:colptr[v + 1]]] = penalty
+
+    # one cycle per mesh component; visiting order: greedy nearest neighbour in space
+    _, comp = pattern_components(G)
+    curves, ends = [], []
+    P = V[idx]
+    sc = unit_scale(P)  # a power of two: squared distances neither overflow nor underflow
+    if sc != 1.0:
+        P = P * (1.0 / sc)
+    for c in np.unique(comp[idx]):
+        members = np.flatnonzero(comp[idx] == c)
+        if members.size < 2:
+            continue
+        order = [members[0]]
+        left = np.zeros(k, dtype=bool)
+        left[members[1:]] = True
+        for _ in range(members.size - 1):
+            d = np.linalg.norm(P - P[order[-1]], axis=1)
+            d[~left] = np.inf
+            j = int(np.argmin(d))
+            order.append(j)
+            left[j] = False
+        if members.size > 2:
+            order.append(order[0])
+        block([idx[order[0]]])
+        for a, b in zip(order[:-1], order[1:]):
+            src, dst = idx[a], idx[b]
+            _, pred = csgraph.dijkstra(G, indices=src, return_predecessors=True)
+            path = trace(pred, dst)[::-1]
+            curves.append(path)
+            ends.append((src, dst))
+            block(path[1:])
+    return curves, np.array(ends, dtype=np.int64).reshape(-1, 2)
+
+
+def partition(V, F, idx, G, *, method="delaunay"):
+    """Cut the mesh by curves through every sample into patches.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions (validated).
+    F : (m, 3) numpy array of int
+        Triangles (validated).
+    idx : (k,) numpy array of int
+        Sample vertices (unique).
+    G : (n, n) scipy sparse matrix
+        The mesh graph whose edge lengths the paths minimise (see
+        :func:`manifill.mesh.graph.mesh_graph`).
+    method : {'delaunay', 'cycle', 'tree'}, optional
+        How to draw the curves (see the module docstring).
+
+    Returns
+    -------
+    Partition
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> from manifill.mesh.graph import mesh_graph
+    >>> V, F = icosphere(3)
+    >>> idx = np.array([0, 1, 2, 3, 4])
+    >>> part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method="cycle")
+    >>> bool(part.on_curve[idx].all()), part.report["patches"]
+    (True, 2)
+    """
+    check_option("method", method, PARTITIONS)
+    idx = np.asarray(idx, dtype=np.int64)
+    G = sp.csr_array(G)
+    n = G.shape[0]
+    if method == "delaunay":
+        curves, ends, _ = _delaunay_paths(G, idx)
+    elif method == "tree":
+        curves, ends = _tree_paths(G, idx)
+    else:
+        curves, ends = _cycle_paths(V, G, idx)
+    on_curve = np.zeros(n, dtype=bool)
+    on_curve[idx] = True
+    if curves:
+        on_curve[np.concatenate(curves)] = True
+        # shortest paths are simple: a vertex inside two or more of them is where paths merged
+        inner = np.concatenate([c[1:-1] for c in curves])
+    else:
+        inner = np.empty(0, dtype=np.int64)
+    uses = np.bincount(inner, minlength=n)
+    part = Partition(curves, np.asarray(ends, dtype=np.int64).reshape(-1, 2), on_curve,
+                     np.full(n, -1, dtype=np.int64), [])
+    _label_patches(part, G)
+    E = part.curve_edges()
+    length = float(G[E[:, 0], E[:, 1]].sum()) if len(E) else 0.0
+    sizes = np.bincount(part.labels[part.labels >= 0]) if (part.labels >= 0).any() else np.zeros(0, np.int64)
+    part.report = {
+        "method": method,
+        "curves": len(curves),
+        "curve_vertices": int(on_curve.sum()),
+        "curve_length": length,
+        "patches": int(sizes.size),
+        "patch_sizes": sizes.tolist(),
+        "inner_points": int((~on_curve).sum()),
+        "balance": float(sizes.max() / sizes.mean()) if sizes.size else 0.0,
+        "merged_vertices": int((uses > 1).sum()),
+    }
+    return part
+
+
+def _label_patches(part, G):
+    """Connected components of the vertices off the curves, and their boundaries."""
+    G = sp.csr_array(G)
+    n = G.shape[0]
+    free = ~part.on_curve
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(G.indptr))
+    cols = G.indices.astype(np.int64)
+    # the mesh graph with every edge at a curve vertex cut (its pattern is symmetric)
+    keep = free[rows] & free[cols]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows[keep], minlength=n))])
+    _, lab = pattern_components(sp.csr_array((np.ones(int(keep.sum())), cols[keep], indptr), shape=(n, n)))
+    labels = np.full(n, -1, dtype=np.int64)
+    if free.any():
+        # patches numbered by decreasing size (ties: by first vertex); curve vertices are
+        # components of their own in ``lab`` and get no number
+        sizes = np.bincount(lab[free], minlength=n)
+        used = np.flatnonzero(sizes)
+        rank = np.full(n, -1, dtype=np.int64)
+        rank[used[np.argsort(-sizes[used], kind="stable")]] = np.arange(used.size)
+        labels[free] = rank[lab[free]]
+    part.labels = labels
+    touch = free[rows] & part.on_curve[cols]
+    key = np.unique(labels[rows[touch]] * n + cols[touch])
+    pl, pv = key // n, key % n
+    npatch = int(labels.max()) + 1
+    split = np.searchsorted(pl, np.arange(npatch + 1))
+    part.boundaries = [pv[split[j]:split[j + 1]] for j in range(npatch)]

@@ -1,0 +1,229 @@
+"""Samples: measured values at vertices, or at positions snapped to the nearest vertex."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import SampleError
+from ..tolerances import TOL
+from ..validate import _first, as_samples, bbox_diagonal, unit_scale
+
+__all__ = ["Samples", "snap_to_vertices", "field_names"]
+
+
+@dataclass
+class Samples:
+    """Samples ready for a mesh: unique vertex indices and their values.
+
+    Attributes
+    ----------
+    idx : (k,) int64 numpy array
+        Sorted unique vertex indices.
+    vals : (k, p) float64 numpy array
+        Values, one column per field.
+    names : list of str
+        The ``p`` field names.
+    snap_distance : (k,) numpy array or None
+        For samples given as positions, the distance from each position to the
+        vertex it was snapped to (the largest one where several samples met at
+        a vertex); ``None`` for samples given as vertex indices.
+    merged : int
+        How many input rows were merged into another sample on the same vertex.
+    """
+
+    idx: np.ndarray
+    vals: np.ndarray
+    names: list = field(default_factory=list)
+    snap_distance: np.ndarray = None
+    merged: int = 0
+
+    @classmethod
+    def from_indices(cls, idx, vals, n, *, names=None, duplicates="error"):
+        """Validate vertex-indexed samples (see :func:`manifill.validate.as_samples`).
+
+        Parameters
+        ----------
+        idx : (k,) array_like of int
+            Vertex of each sample.
+        vals : (k,) or (k, p) array_like of float
+            Values.
+        n : int
+            Number of vertices of the mesh.
+        names : list of str, optional
+            Field names; ``value``, ``value2``, ... by default.
+        duplicates : {'error', 'mean'}, optional
+            Conflicting values on one vertex: raise, or average.
+
+        Returns
+        -------
+        Samples
+        """
+        k = len(np.asarray(idx).ravel())
+        uidx, uvals, _ = as_samples(idx, vals, n, duplicates=duplicates)
+        return cls(uidx, uvals, field_names(names, uvals.shape[1]), None, k - uidx.size)
+
+    @classmethod
+    def from_points(cls, V, points, vals, *, names=None, duplicates="error", max_distance=None):
+        """Snap sample positions to their nearest vertices, then validate.
+
+        Parameters
+        ----------
+        V : (n, 3) numpy array
+            Vertex positions of the mesh.
+        points : (k, 3) array_like
+            Sample positions.
+        vals : (k,) or (k, p) array_like of float
+            Values.
+        names : list of str, optional
+            Field names.
+        duplicates : {'error', 'mean'}, optional
+            Several samples snapped onto one vertex with different values:
+            raise, or average.
+        max_distance : float, optional
+            Largest accepted snap distance, in the mesh's units (default: see
+            :func:`snap_to_vertices`).
+
+        Returns
+        -------
+        Samples
+
+        Raises
+        ------
+        SampleError
+            A sample farther than ``max_distance`` from the mesh (the message
+            gives the ratio to the mesh size and asks "wrong units?"), or
+            conflicting values on one vertex.
+        """
+        idx, dist = snap_to_vertices(V, points, max_distance=max_distance)
+        k = idx.size
+        uidx, uvals, _ = as_samples(idx, vals, len(V), duplicates=duplicates)
+        worst = np.zeros(len(V))
+        np.maximum.at(worst, idx, dist)
+        return cls(uidx, uvals, field_names(names, uvals.shape[1]), worst[uidx], k - uidx.size)
+
+
+def field_names(names, p):
+    """Check ``p`` field names, or make ``value, value2, ...``.
+
+    Parameters
+    ----------
+    names : list of str or None
+        Given names.
+    p : int
+        Number of value columns.
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    SampleError
+        If the count does not match.
+    """
+    if names is None:
+        return ["value"] + [f"value{j + 1}" for j in range(1, p)]
+    names = [str(s) for s in names]
+    if len(names) != p:
+        raise SampleError(f"{len(names)} field names for {p} value columns; give one name per column")
+    seen = set()
+    for name in names:
+        if name in seen:
+            raise SampleError(f"the value column name {name!r} repeats; give each value column its own name")
+        seen.add(name)
+    return names
+
+
+def snap_to_vertices(V, points, *, max_distance=None):
+    """Nearest vertex of every point, with the distance (KD-tree).
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    points : (k, 3) array_like
+        Query positions (``(k, 2)`` for a flat mesh).
+    max_distance : float, optional
+        Largest accepted distance; by default ``TOL.snap`` times the
+        bounding-box diagonal of ``V`` plus the largest distance from a vertex
+        to its nearest other vertex (so that a sample anywhere on a coarse
+        triangle is accepted).
+
+    Returns
+    -------
+    idx : (k,) int64 numpy array
+        Nearest vertex of each point.
+    dist : (k,) numpy array
+        Distance to it.
+
+    Raises
+    ------
+    SampleError
+        Malformed or non-finite positions, or a point farther than
+        ``max_distance``: the message gives the distance as a multiple of the
+        mesh size and suggests checking the units.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]])
+    >>> idx, dist = snap_to_vertices(V, [[0.9, 0.05, 0]])
+    >>> idx.tolist(), round(float(dist[0]), 4)
+    ([1], 0.1118)
+    >>> snap_to_vertices(V, [[900, 50, 0]])
+    Traceback (most recent call last):
+    ...
+    manifill.errors.SampleError: 1 samples lie far from the mesh (row 0: 900 from the nearest vertex, 637 x the mesh's size 1.41; accepted: 1.07); wrong units? ...)
+    """
+    V = np.asarray(V, dtype=np.float64)
+    try:
+        P = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SampleError("sample positions could not be read as numbers; pass a (k, 3) float array") from None
+    if P.ndim == 2 and P.shape[1] == 2 and V.shape[1] == 3:
+        P = np.column_stack([P, np.zeros(len(P))])
+    if P.ndim != 2 or P.shape[1] != V.shape[1] or P.shape[0] == 0:
+        raise SampleError(f"sample positions have shape {P.shape}; pass a (k, 3) array with at least one row")
+    bad = ~np.isfinite(P).all(axis=1)
+    if bad.any():
+        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {_first(np.flatnonzero(bad))}")
+    diag = bbox_diagonal(V)
+    # the KD-tree compares squared distances: query in units of a power of two near the
+    # mesh's size (exact), so that they neither overflow nor underflow, and scale back
+    sc = unit_scale(V)
+    inv = 1.0 / sc
+    tree = cKDTree(V if sc == 1.0 else V * inv)
+    if max_distance is None:
+        # a sample anywhere on a coarse triangle may be an edge length from its vertex
+        spacing = float(tree.query(tree.data, k=2)[0][:, 1].max()) * sc if len(V) > 1 else 0.0
+        limit = TOL.snap * diag + spacing
+    else:
+        limit = float(max_distance)
+        if not limit >= 0:
+            raise SampleError(f"max_distance={max_distance!r} must be a distance >= 0 (inf for no limit)")
+    with np.errstate(over="ignore"):
+        Ps = P if sc == 1.0 else P * inv
+    # positions so far out (in the mesh's units) that their squared distances would overflow:
+    # far from every vertex, measured apart below
+    out = ~(np.abs(Ps) < 2.0**500).all(axis=1)
+    if out.any():
+        Ps = Ps.copy()
+        Ps[out] = tree.data[0]
+    dist, idx = tree.query(Ps)
+    if sc != 1.0:
+        dist = dist * sc
+    if out.any():
+        d = P[out] - V[0]
+        m = np.abs(d).max(axis=1, keepdims=True)
+        dist[out] = m[:, 0] * np.linalg.norm(d / m, axis=1)
+    far = np.flatnonzero(dist > limit)
+    if far.size:
+        i = int(far[np.argmax(dist[far])])
+        with np.errstate(over="ignore"):
+            ratio = dist[i] / diag
+        raise SampleError(
+            f"{far.size} samples lie far from the mesh (row {i}: {dist[i]:.3g} from the nearest vertex, "
+            f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? "
+            f"Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-snap)"
+        )
+    return idx.astype(np.int64), dist

@@ -1,0 +1,207 @@
+"""Pictures of a reconstruction: PNG renders made off-screen with pyvista (the ``[viz]`` extra).
+
+The surface coloured by the field with a colour bar, the samples as points, the
+partition curves as lines; several panels side by side like the paper's figures;
+three orthogonal slices through a solid. Everything renders off-screen, so it works
+on a machine with no display. :func:`render` takes several named fields and draws
+the one chosen by name.
+"""
+
+import ctypes.util
+import os
+
+import numpy as np
+
+from ..errors import WriteError
+from ..mesh.objects import mesh_arrays
+from .viewer import choose_field, named_fields
+
+__all__ = ["render", "render_panels", "render_slices"]
+
+
+def _pv():
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") and ctypes.util.find_library("EGL"):
+        # no display: an EGL off-screen window, without first failing to reach an X server
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    try:
+        import pyvista as pv
+    except ImportError:
+        raise ImportError("rendering needs pyvista: pip install 'manifill[viz]'") from None
+    pv.OFF_SCREEN = True
+    return pv
+
+
+def _polydata(pv, V, F):
+    faces = np.column_stack([np.full(len(F), 3), np.asarray(F, dtype=np.int64)]).ravel()
+    return pv.PolyData(np.asarray(V, dtype=np.float64), faces)
+
+
+def _add_surface(pl, pv, panel, clim, cmap):
+    V, F = panel["V"], panel["F"]
+    mesh = _polydata(pv, V, F)
+    values = panel.get("values")
+    name = panel.get("name", "value")
+    if values is not None:
+        mesh.point_data[name] = np.asarray(values, dtype=np.float64)
+        pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, smooth_shading=True, nan_color="lightgrey",
+                    scalar_bar_args={"title": name, "vertical": False, "n_labels": 5, "fmt": "%.3g",
+                                     "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08})
+    else:
+        pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
+    curves = panel.get("curves")
+    if curves:
+        pts, lines = [], []
+        start = 0
+        for c in curves:
+            c = np.asarray(c)
+            if len(c) < 2:
+                continue
+            pts.append(V[c])
+            lines.append(np.concatenate([[len(c)], start + np.arange(len(c))]))
+            start += len(c)
+        if pts:
+            poly = pv.PolyData(np.concatenate(pts), lines=np.concatenate(lines))
+            if panel.get("colour_curves") and values is not None:
+                # the curves themselves carry the values (e.g. Step 4 before the fill): thick, coloured
+                poly.point_data[name] = np.concatenate([np.asarray(values)[np.asarray(c)] for c in curves
+                                                        if len(c) >= 2])
+                pl.add_mesh(poly, scalars=name, cmap=cmap, clim=clim, line_width=6, render_lines_as_tubes=True,
+                            show_scalar_bar=False)
+            else:
+                pl.add_mesh(poly, color="black", line_width=2)
+    samples = panel.get("samples")
+    if samples is not None and len(samples):
+        pl.add_points(np.asarray(V)[np.asarray(samples)], color="red", point_size=9, render_points_as_spheres=True)
+    if panel.get("title"):
+        pl.add_text(panel["title"], font_size=11, position="upper_edge")
+
+
+def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=True, view=None, viewup=None):
+    """Render surfaces side by side into one PNG.
+
+    Parameters
+    ----------
+    panels : list of dict
+        Each with ``V`` (n, 3), ``F`` (m, 3) and optionally ``values`` (n,),
+        ``samples`` (k,) vertex indices, ``curves`` (list of vertex paths),
+        ``colour_curves`` (draw the curves thick and coloured by ``values``),
+        ``title`` and ``name`` (of the field, for the colour bar).
+    path : str or Path
+        The PNG to write.
+    size : (int, int), optional
+        Width and height in pixels.
+    cmap : str, optional
+        A matplotlib colour map name.
+    same_scale : bool, optional
+        One colour range for all panels (to compare them).
+    view : tuple of 3 floats, optional
+        Direction the camera looks from (default: pyvista's isometric view).
+    viewup : tuple of 3 floats, optional
+        The direction that points up in the picture (with ``view``).
+
+    Raises
+    ------
+    ImportError
+        Without pyvista.
+    WriteError
+        If the image cannot be written.
+    """
+    pv = _pv()
+    clim = None
+    if same_scale:
+        finite = [np.asarray(p["values"])[np.isfinite(p["values"])] for p in panels if p.get("values") is not None]
+        finite = [f for f in finite if f.size]
+        if finite:
+            clim = [float(min(f.min() for f in finite)), float(max(f.max() for f in finite))]
+    pl = pv.Plotter(off_screen=True, shape=(1, len(panels)), window_size=list(size), border=False)
+    for j, panel in enumerate(panels):
+        pl.subplot(0, j)
+        _add_surface(pl, pv, panel, clim, cmap)
+        if view is not None:
+            pl.view_vector(view, viewup=viewup)
+        pl.set_background("white")
+    if len(panels) > 1:
+        pl.link_views()
+    try:
+        pl.screenshot(str(path))
+    except (OSError, ValueError) as exc:
+        raise WriteError(f"{path}: could not write the image ({exc}); check the path") from None
+    finally:
+        pl.close()
+
+
+def render(V, F, values, path, *, samples=None, curves=None, title=None, name="value", names=None, field=None,
+           size=(900, 700), cmap="viridis", view=None, viewup=None):
+    """Render one surface coloured by a field into a PNG.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+    F : (m, 3) numpy array of int
+    values : (n,) or (n, p) numpy array, dict of str to (n,) array, or None
+        The field(s); None draws the surface grey. Only the field ``field`` is drawn.
+    path : str or Path
+    samples : (k,) array of int, optional
+        Drawn as red points.
+    curves : list of (l,) int arrays, optional
+        Drawn as black lines.
+    name : str, optional
+        The name of a (n,) field, for the colour bar; the prefix ``name_0 ... name_{p-1}``
+        of the columns of a (n, p) one without ``names``.
+    names : list of p str, optional
+        The names of the columns of a (n, p) ``values``.
+    field : str, optional
+        The name of the field to draw (default: the first).
+    title, size, cmap, view, viewup
+        See :func:`render_panels`.
+
+    Raises
+    ------
+    OptionError
+        If ``field`` names no field (the message lists them), or ``names`` does not fit.
+    WriteError
+        If a field does not hold one number per vertex, or the image cannot be written.
+    ImportError
+        Without pyvista.
+    """
+    V, F = mesh_arrays(V, F)
+    fields = named_fields(values, len(V), names=names, name=name)
+    chosen = choose_field(fields, field)
+    x = None if chosen is None else fields[chosen]
+    render_panels([dict(V=V, F=F, values=x, samples=samples, curves=curves, title=title,
+                        name=name if chosen is None else chosen)], path, size=size, cmap=cmap, view=view, viewup=viewup)
+
+
+def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 450), cmap="viridis"):
+    """Three orthogonal slices through the middle of a voxel field, side by side.
+
+    Parameters
+    ----------
+    values : (n0, n1, n2) numpy array
+        NaN outside the solid.
+    spacing, origin : (3,) array_like
+    path : str or Path
+    """
+    pv = _pv()
+    grid = pv.ImageData(dimensions=values.shape, spacing=tuple(map(float, spacing)), origin=tuple(map(float, origin)))
+    grid.point_data[name] = np.asarray(values, dtype=np.float64).ravel(order="F")
+    finite = values[np.isfinite(values)]
+    clim = [float(finite.min()), float(finite.max())] if finite.size else None
+    pl = pv.Plotter(off_screen=True, shape=(1, 3), window_size=list(size), border=False)
+    for j, (normal, label) in enumerate((("x", "x"), ("y", "y"), ("z", "z"))):
+        pl.subplot(0, j)
+        sl = grid.slice(normal=normal)
+        sl = sl.threshold(value=clim, scalars=name) if clim else sl
+        pl.add_mesh(sl, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0,
+                    scalar_bar_args={"title": name, "vertical": False, "fmt": "%.3g", "position_x": 0.15,
+                                     "position_y": 0.04, "width": 0.7, "height": 0.08})
+        pl.add_text(f"slice across {label}", font_size=10, position="upper_edge")
+        pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal],
+                       viewup=(0, 1, 0) if normal == "z" else (0, 0, 1))
+        pl.set_background("white")
+    try:
+        pl.screenshot(str(path))
+    except (OSError, ValueError) as exc:
+        raise WriteError(f"{path}: could not write the image ({exc}); check the path") from None
+    finally:
+        pl.close()

@@ -15,7 +15,7 @@ file but a complete output.
 
 CI budget: this whole file runs in about 40 s on the 2-core CI machine (``--durations``); keep it under 60 s.
 ``MANIFILL_FUZZ_COUNT=N`` runs N examples per strategy instead and prints the table of inputs and outcomes by
-format and class at the end (``pytest tests/test_fuzz.py -p no:cacheprovider``).
+format and class at the end (``pytest tests/io/test_fuzz.py -p no:cacheprovider``).
 """
 
 import base64

@@ -29,7 +29,7 @@ __all__ = [
 ]
 
 
-def _first(idx, k=5):
+def first_entries(idx, k=5):
     """Format the first ``k`` entries of an index list for a message."""
     idx = np.asarray(idx).ravel()
     head = ", ".join(str(int(i)) for i in idx[:k])
@@ -89,7 +89,7 @@ def _half_extents(V):
     return [0.5 * float(V[:, k].max()) - 0.5 * float(V[:, k].min()) for k in range(V.shape[1])]
 
 
-def _scale_of(h):
+def scale_of(h):
     """The power of two ``2**e`` with ``h = m 2**e``, ``0.5 <= m < 1``; 1.0 inside the window or for ``h = 0``."""
     if not (h > 0 and np.isfinite(h)):
         return 1.0
@@ -135,15 +135,15 @@ def unit_scale(V):
     h = max(_half_extents(V))
     if not h > 0:
         h = max(float(np.abs(V[:, k]).max()) for k in range(V.shape[1]))
-    return _scale_of(h)
+    return scale_of(h)
 
 
-def _bbox(V):
+def scale_and_diagonal(V):
     """``(s, diag)``: :func:`unit_scale` of ``V`` and its bounding-box diagonal in units of ``s``."""
     if len(V) == 0:
         return 1.0, 1.0
     h = _half_extents(V)
-    s = _scale_of(max(h))
+    s = scale_of(max(h))
     inv = 1.0 / s
     # (2 h)**2 summed as in the plain formula, on extents of about unit size
     d = float(np.sqrt(sum((2.0 * x * inv) ** 2 for x in h)))
@@ -167,7 +167,7 @@ def bbox_diagonal(V):
         overflows nor underflows where the length itself is a float); 1.0 if ``V``
         is empty or all points coincide.
     """
-    s, d = _bbox(V)
+    s, d = scale_and_diagonal(V)
     return d * s if d > 0 else 1.0
 
 
@@ -183,7 +183,7 @@ def _as_vertices(V):
     if not np.isfinite(V).all():
         bad = ~np.isfinite(V).all(axis=1)
         raise MeshError(
-            f"{int(bad.sum())} vertices have NaN or infinite coordinates (rows {_first(np.flatnonzero(bad))}); "
+            f"{int(bad.sum())} vertices have NaN or infinite coordinates (rows {first_entries(np.flatnonzero(bad))}); "
             f"remove or fix them"
         )
     if V.shape[1] == 2:
@@ -191,7 +191,7 @@ def _as_vertices(V):
     return np.ascontiguousarray(V)
 
 
-def _as_faces(F, n, width=3, what="F", kind="triangles"):
+def as_cells(F, n, width=3, what="F", kind="triangles"):
     try:
         F = np.asarray(F)
     except (TypeError, ValueError):
@@ -210,7 +210,7 @@ def _as_faces(F, n, width=3, what="F", kind="triangles"):
     if lo < 0 or hi >= n:
         bad = np.flatnonzero(((F < 0) | (F >= n)).any(axis=1))
         raise MeshError(
-            f"{what} refers to vertex {lo if lo < 0 else hi}, outside 0..{n - 1} (rows {_first(bad)}); "
+            f"{what} refers to vertex {lo if lo < 0 else hi}, outside 0..{n - 1} (rows {first_entries(bad)}); "
             f"indices must be 0-based and below the number of vertices"
         )
     return np.ascontiguousarray(F)
@@ -274,7 +274,7 @@ def zero_area_faces(V, F):
     >>> zero_area_faces(V, np.array([[0, 1, 2], [0, 1, 3]])).tolist()
     [False, True]
     """
-    s, diag = _bbox(V)
+    s, diag = scale_and_diagonal(V)
     return _double_areas(V, F, 1.0 / s) <= 2 * TOL.degenerate_area * diag * diag
 
 
@@ -295,7 +295,7 @@ def duplicate_vertex_pairs(V, tol=None):
     """
     tol = TOL.weld if tol is None else tol
     # everything in units of s (a power of two): the KD-tree compares squared distances
-    s, diag = _bbox(V)
+    s, diag = scale_and_diagonal(V)
     inv = 1.0 / s
     eps = tol * (diag if diag > 0 else inv)
     # Coinciding points have nearly equal projections on any direction: only the
@@ -359,20 +359,20 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
     V, F = mesh_arrays(V, F)
     V = _as_vertices(V)
     n = len(V)
-    F = _as_faces(F, n)
+    F = as_cells(F, n)
     used = np.zeros(n, dtype=bool)
     used[F.ravel()] = True
     if not allow_unreferenced and not used.all():
         unused = np.flatnonzero(~used)
         raise MeshError(
-            f"{unused.size} vertices are used by no face (vertices {_first(unused)}); "
+            f"{unused.size} vertices are used by no face (vertices {first_entries(unused)}); "
             f"remove them with manifill.clean_mesh (CLI: --clean)"
         )
     if not allow_degenerate:
         bad = np.flatnonzero(zero_area_faces(V, F))
         if bad.size:
             raise MeshError(
-                f"{bad.size} faces have zero area (faces {_first(bad)}); remove them "
+                f"{bad.size} faces have zero area (faces {first_entries(bad)}); remove them "
                 f"(manifill.clean_mesh, CLI: --clean) or use weights='uniform' or 'robust', which tolerate them"
             )
     dup = np.empty((0, 2), np.int64) if allow_unwelded else duplicate_vertex_pairs(V)
@@ -433,17 +433,17 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
         raise MeshError(f"V has shape {np.shape(V)}; a tetrahedral mesh needs an (n, 3) array of vertex positions")
     V = V3
     n = len(V)
-    T = _as_faces(T, n, width=4, what="T", kind="tetrahedra")
+    T = as_cells(T, n, width=4, what="T", kind="tetrahedra")
     used = np.zeros(n, dtype=bool)
     used[T.ravel()] = True
     if not allow_unreferenced and not used.all():
         unused = np.flatnonzero(~used)
         raise MeshError(
-            f"{unused.size} vertices are used by no tetrahedron (vertices {_first(unused)}); "
+            f"{unused.size} vertices are used by no tetrahedron (vertices {first_entries(unused)}); "
             f"remove them and renumber T"
         )
     if not allow_degenerate:
-        s, diag = _bbox(V)  # volumes in units of s**3: no overflow or underflow at any scale
+        s, diag = scale_and_diagonal(V)  # volumes in units of s**3: no overflow or underflow at any scale
         Vs = V if s == 1.0 else V * (1.0 / s)
         a = Vs[T[:, 0]]
         u, v, w = Vs[T[:, 1]] - a, Vs[T[:, 2]] - a, Vs[T[:, 3]] - a
@@ -451,7 +451,7 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
         bad = np.flatnonzero(np.abs(vol) <= TOL.degenerate_area * diag**3)
         if bad.size:
             raise MeshError(
-                f"{bad.size} tetrahedra have zero volume (tetrahedra {_first(bad)}); remove them "
+                f"{bad.size} tetrahedra have zero volume (tetrahedra {first_entries(bad)}); remove them "
                 f"or use weights='uniform', which tolerates them"
             )
     return V, T
@@ -548,7 +548,7 @@ def as_indices(b, n, *, what="b", unique=True):
     if lo < 0 or hi >= n:
         bad = np.flatnonzero((b < 0) | (b >= n))
         raise SampleError(
-            f"{what} holds vertex {lo if lo < 0 else hi}, outside 0..{n - 1} (entries {_first(bad)}); "
+            f"{what} holds vertex {lo if lo < 0 else hi}, outside 0..{n - 1} (entries {first_entries(bad)}); "
             f"indices must be 0-based and below the number of vertices"
         )
     if unique:
@@ -609,7 +609,7 @@ def as_values(bc, k, *, what="bc"):
         raise SampleError(f"{what} has no columns; pass at least one field")
     bad = ~np.isfinite(bc).all(axis=1)
     if bad.any():
-        raise SampleError(f"{what} has NaN or infinite values in rows {_first(np.flatnonzero(bad))}; remove those samples")
+        raise SampleError(f"{what} has NaN or infinite values in rows {first_entries(np.flatnonzero(bad))}; remove those samples")
     return np.ascontiguousarray(bc), squeeze
 
 
@@ -667,7 +667,7 @@ def as_samples(idx, vals, n, *, duplicates="error"):
         shown = ", ".join(f"{vals[r, 0]:g}" for r in rows[:4])
         nv = np.unique(idx[conflict]).size
         raise SampleError(
-            f"{nv} vertices get two different values (vertex {v}: rows {_first(rows)} = {shown}); "
+            f"{nv} vertices get two different values (vertex {v}: rows {first_entries(rows)} = {shown}); "
             f"remove the conflicting samples, or average them (duplicates='mean', CLI: --duplicates mean)"
         )
     return uniq, mean, squeeze

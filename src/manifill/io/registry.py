@@ -197,12 +197,12 @@ def read_mesh_file(path):
     if V.ndim == 2 and V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
     F = np.asarray(F, dtype=np.int64)
-    _check_cells(path, V, F, "face")
+    check_cells(path, V, F, "face")
     point_data = {str(k): np.asarray(a) for k, a in point_data.items() if np.shape(a)[:1] == (len(V),)}
     return MeshFile(V, F, point_data, fmt, path)
 
 
-def _check_cells(path, V, C, what):
+def check_cells(path, V, C, what):
     """Refuse points that are not ``(n, 3)`` or cells with a vertex index outside ``0..n-1`` (a damaged file).
 
     Parameters
@@ -582,11 +582,8 @@ def _write_meshio(path, V, cells, point_data, fmt):
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path and the fields") from None
 
 
-# kept for the modules that check suffixes and read through meshio
-_suffix = suffix
 
-
-def _meshio_read(path, ext, fmt):
+def meshio_read(path, ext, fmt):
     """meshio's reader of one format, with a damaged file as one-line :class:`ReadError`."""
     import meshio
 

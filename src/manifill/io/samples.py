@@ -221,7 +221,7 @@ def _npy_header(fh, name, size):
     return shape, dtype
 
 
-def _load_npy(path, kind="NPY array"):
+def load_npy(path, kind="NPY array"):
     """np.load of one ``.npy`` file whose header was checked first (``kind`` names it in messages)."""
     with reading(path, kind):
         with open(path, "rb") as fh:
@@ -273,7 +273,7 @@ def _read_npz(path):
 
 
 def _read_structured_npy(path):
-    arr = _load_npy(path)
+    arr = load_npy(path)
     if arr.dtype.names is None:
         raise ReadError(
             f"{path.name}: a plain array has no column names; save a structured array with fields "

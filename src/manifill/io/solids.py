@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ReadError, WriteError
-from .registry import _check_cells, _meshio_read, _suffix, atomic_path
-from .vtkxml import _grid_arrays, read_imagedata, write_imagedata
+from .files import atomic_path, suffix
+from .registry import check_cells, meshio_read
+from .vtkxml import grid_arrays, read_imagedata, write_imagedata
 
 __all__ = ["TET_FORMATS", "GRID_FORMATS", "read_tets", "write_tets", "write_vti", "read_vti", "read_mask"]
 
@@ -45,7 +46,7 @@ def read_tets(path):
         Missing file, unknown extension, unparsable file, or no tetrahedra.
     """
     path = Path(path)
-    ext = _suffix(path, tuple(TET_FORMATS), "read")
+    ext = suffix(path, tuple(TET_FORMATS), "read")
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
     if ext == ".vtk":
@@ -58,14 +59,14 @@ def read_tets(path):
         return V, cells["tetra"]
     if ext == ".msh":
         _check_msh(path)
-    mesh = _meshio_read(path, ext, TET_FORMATS[ext])
+    mesh = meshio_read(path, ext, TET_FORMATS[ext])
     tets = [b.data for b in mesh.cells if b.type == "tetra"]
     if not tets:
         kinds = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
         raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
     V = np.asarray(mesh.points, dtype=np.float64)
     T = np.concatenate(tets).astype(np.int64)
-    _check_cells(path, V[:, :3] if V.ndim == 2 else V, T, "tetrahedron")
+    check_cells(path, V[:, :3] if V.ndim == 2 else V, T, "tetrahedron")
     return V[:, :3], T
 
 
@@ -180,7 +181,7 @@ def write_tets(path, V, T, point_data=None):
     from .registry import write_cells
     from ..validate import as_tets
 
-    _suffix(path, tuple(TET_FORMATS), "write")
+    suffix(path, tuple(TET_FORMATS), "write")
     try:
         V, T = as_tets(V, T, allow_degenerate=True, allow_unreferenced=True)
     except ManifillError as exc:
@@ -213,11 +214,11 @@ def write_vti(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
     >>> bool((d["t"] == np.arange(24.0).reshape(2, 3, 4)).all()), h.tolist()
     (True, [1.0, 1.0, 2.0])
     """
-    ext = _suffix(path, GRID_FORMATS, "write")
+    ext = suffix(path, GRID_FORMATS, "write")
     if ext == ".vti":
         write_imagedata(path, fields, spacing, origin)
         return
-    _, arrays = _grid_arrays(fields)
+    _, arrays = grid_arrays(fields)
     if len(arrays) != 1:
         raise WriteError(f"{Path(path).name}: .npy holds one array but {len(arrays)} fields were given; "
                          f"write .vti")
@@ -243,7 +244,7 @@ def read_vti(path):
         Missing file, not ImageData, a damaged file or a rotated grid.
     """
     path = Path(path)
-    _suffix(path, (".vti",), "read")
+    suffix(path, (".vti",), "read")
     return read_imagedata(path)
 
 
@@ -268,13 +269,13 @@ def read_mask(path, *, field=None):
         A missing file, no such field, or values other than 0 and 1.
     """
     path = Path(path)
-    ext = _suffix(path, GRID_FORMATS, "read")
+    ext = suffix(path, GRID_FORMATS, "read")
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
     if ext == ".npy":
-        from .samples import _load_npy
+        from .samples import load_npy
 
-        arr = _load_npy(path, ".npy array")  # the header checked against the file's size first
+        arr = load_npy(path, ".npy array")  # the header checked against the file's size first
         spacing = origin = None
     else:
         fields, spacing, origin = read_vti(path)

@@ -622,7 +622,7 @@ def _vtk_array(arr):
         return None
 
 
-def _grid_arrays(fields):
+def grid_arrays(fields):
     """Validate voxel fields: (grid shape, dict name -> array in its written dtype)."""
     if not fields:
         raise WriteError("no fields to write; pass at least one")
@@ -791,7 +791,7 @@ def write_imagedata(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0
         No fields, fields of different grids, an unusable name, spacing or origin
         not three numbers, or a failure while writing (nothing is left behind).
     """
-    shape, arrays = _grid_arrays(fields)
+    shape, arrays = grid_arrays(fields)
     for name in arrays:
         _check_name(name)
     try:

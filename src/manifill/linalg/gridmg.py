@@ -24,7 +24,7 @@ import scipy.sparse as sp
 from scipy import ndimage
 from scipy.sparse.linalg import splu
 
-from ..solid.voxels import _unit_spacing, stencil_weights, voxel_laplacian
+from ..solid.voxels import unit_spacing, stencil_weights, voxel_laplacian
 
 __all__ = ["GridMultigrid"]
 
@@ -283,7 +283,7 @@ class GridMultigrid:
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
         self.shape = domain.shape
         # weights of about unit size: A and rhs() are the physical ones times one power of four
-        spacing = _unit_spacing(spacing)
+        spacing = unit_spacing(spacing)
         self.fine = _Level(domain, free, spacing, connectivity, np.float64, self._pool)
         self.levels = [_Level(domain, free, spacing, connectivity, np.float32, self._pool)]
         self.axes = []

@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .topology import EdgeIndex
-from ..validate import _bbox, as_mesh, check_option
+from ..validate import scale_and_diagonal, as_mesh, check_option
 
 __all__ = ["laplacian", "cotangents", "WEIGHTS"]
 
@@ -46,7 +46,7 @@ def _normalised(V):
     Positions far outside unit size are first divided by a power of two (exact), so
     that neither the mean nor the diagonal overflows or underflows.
     """
-    s, diag = _bbox(V)  # diag in units of s
+    s, diag = scale_and_diagonal(V)  # diag in units of s
     if s != 1.0:
         V = V * (1.0 / s)
     return (V - V.mean(axis=0)) / (diag if diag > 0 else 1.0)
@@ -171,10 +171,10 @@ def laplacian(V, F, *, weights="cotan"):
     """
     check_option("weights", weights, WEIGHTS)
     V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"), allow_unreferenced=True)
-    return _laplacian(V, F, weights)
+    return assemble_laplacian(V, F, weights)
 
 
-def _laplacian(V, F, weights, index=None):
+def assemble_laplacian(V, F, weights, index=None):
     """:func:`laplacian` on arrays that have passed :func:`~manifill.validate.as_mesh`.
 
     ``index`` (an :class:`~manifill.mesh.topology.EdgeIndex` of ``F``) is reused when given.

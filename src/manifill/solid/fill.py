@@ -24,7 +24,7 @@ from ..linalg.backends import SOLVERS
 from ..memory import check_fits, lu_memory
 from .tets import tet_laplacian
 from ..validate import as_indices, as_mask, as_values, as_tets, check_option, unit_scale
-from .voxels import _unit_spacing, as_connectivity, as_spacing, voxel_components, voxel_laplacian
+from .voxels import unit_spacing, as_connectivity, as_spacing, voxel_components, voxel_laplacian
 
 __all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory", "tet_fill_memory"]
 
@@ -219,7 +219,7 @@ class VoxelFill:
                        "lower the resolution (CLI --resolution) or crop the grid to the solid")
             # the spacing brought to about unit size: the same solution, weights that neither
             # overflow nor underflow for voxels of 1e-150 or 1e150
-            L = voxel_laplacian(solid, _unit_spacing(self.spacing), self.connectivity)
+            L = voxel_laplacian(solid, unit_spacing(self.spacing), self.connectivity)
             b = np.flatnonzero(self.fixed[solid])
             self._hs = HarmonicSolver.from_laplacian(L, b, solver=solver, tol=self._tol_arg,
                                                      maxiter=self._maxiter_arg, symmetric_pattern=True)

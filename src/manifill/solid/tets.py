@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import MeshError, OptionError, ResourceError
 from ..memory import check_fits
 from ..mesh.topology import EdgeIndex, edges
-from ..validate import _as_faces, as_mesh, as_tets, bbox_diagonal, check_option, unit_scale
+from ..validate import as_cells, as_mesh, as_tets, bbox_diagonal, check_option, unit_scale
 
 __all__ = ["tet_laplacian", "boundary_faces", "tet_volumes", "tetrahedralize", "surface_volume", "tet_count",
            "tetrahedralize_memory"]
@@ -222,8 +222,8 @@ def boundary_faces(T, *, V=None):
         try:
             n = max(int(np.max(T)) + 1, 1)
         except (TypeError, ValueError, OverflowError):
-            n = 1  # _as_faces names the problem
-        T = _as_faces(T, n, width=4, what="T", kind="tetrahedra")
+            n = 1  # as_cells names the problem
+        T = as_cells(T, n, width=4, what="T", kind="tetrahedra")
         flip = np.zeros(len(T), dtype=bool)
     else:
         V, T = as_tets(V, T, allow_degenerate=True, allow_unreferenced=True)
@@ -281,11 +281,11 @@ def surface_volume(V, F):
     4.18
     """
     V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
-    vol, s = _unit_volume(V, F)
+    vol, s = unit_volume(V, F)
     return vol * s * s * s  # inf only when the volume itself overflows
 
 
-def _unit_volume(V, F):
+def unit_volume(V, F):
     """``(vol, s)``: the volume enclosed by validated arrays is ``vol * s**3``, ``vol`` computed on ``V / s``.
 
     ``s`` is :func:`~manifill.validate.unit_scale` of ``V`` (1 for the usual
@@ -316,7 +316,7 @@ def _tet_count(V, F, max_volume):
     bound, s = _unit_bound(V, max_volume)
     if bound is None:
         return surface
-    vol = _unit_volume(V, F)[0]
+    vol = unit_volume(V, F)[0]
     return _TETS_PER_BOUND * vol / bound + surface if bound > 0 else np.inf
 
 

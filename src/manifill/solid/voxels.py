@@ -156,7 +156,7 @@ def stencil_weights(spacing=(1.0, 1.0, 1.0), connectivity=6):
     return D, w
 
 
-def _unit_spacing(spacing):
+def unit_spacing(spacing):
     """``spacing`` divided by a power of two that brings it to about unit size (unchanged in the usual range).
 
     The stencil weights are homogeneous of degree -2 in the spacing, so this
@@ -436,9 +436,9 @@ def _solid_voxels(V, F, h):
     both on ``V / unit_scale(V)``: for a mesh of size ``1e150`` the volume and
     ``h**3`` overflow, for ``1e-150`` they underflow, their ratio does neither.
     """
-    from .tets import _unit_volume
+    from .tets import unit_volume
 
-    vol, s = _unit_volume(V, F)
+    vol, s = unit_volume(V, F)
     return vol / (h / s) ** 3
 
 

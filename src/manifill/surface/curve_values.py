@@ -35,7 +35,7 @@ import scipy.sparse as sp
 
 from .gradual import gvf
 from ..linalg.backends import make_linear_solver
-from ..validate import _scale_of, check_option, unit_scale
+from ..validate import scale_of, check_option, unit_scale
 
 __all__ = ["CURVE_VALUES", "curve_graph", "curve_values", "vertex_normals"]
 
@@ -332,7 +332,7 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
     W = G.copy()
     # weights 1 / length in units of a power of two near the longest edge: the same
     # solution, and no overflow of the weights of a tiny mesh
-    W.data = (_scale_of(float(W.data.max())) if W.nnz else 1.0) / W.data
+    W.data = (scale_of(float(W.data.max())) if W.nnz else 1.0) / W.data
     L = (sp.diags_array(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
     pos = np.searchsorted(cv, idx)
     free = np.ones(cv.size, dtype=bool)

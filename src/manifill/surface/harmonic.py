@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SampleError, SolveError
-from ..mesh.laplacian import WEIGHTS, _laplacian
+from ..mesh.laplacian import WEIGHTS, assemble_laplacian
 from ..linalg.backends import make_linear_solver
 from ..mesh.topology import pattern_components
 from ..validate import as_indices, as_mesh, as_values, check_option
@@ -96,7 +96,7 @@ class HarmonicSolver:
         V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
         b = as_indices(b, len(V), what="b")
         t1 = time.perf_counter()
-        L = _laplacian(V, F, weights)
+        L = assemble_laplacian(V, F, weights)
         t2 = time.perf_counter()
         self._setup(L, b, weights, solver, on_empty, iteration, tol, maxiter,
                     {"validate": t1 - t0, "laplacian": t2 - t1})

@@ -20,7 +20,7 @@ from ..errors import SampleError
 from ..mesh.graph import DISTANCES, mesh_graph
 from .gradual import check_gradual, gvf, violation_message
 from .harmonic import ON_EMPTY, HarmonicSolver
-from ..mesh.laplacian import WEIGHTS, _laplacian
+from ..mesh.laplacian import WEIGHTS, assemble_laplacian
 from .partition import PARTITIONS
 from .partition import partition as _partition
 from ..progress import tick
@@ -207,7 +207,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     G_hops = mesh_graph(V, F, distance="hops", index=index)
     G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
     seconds["graph"] = time.perf_counter() - t
-    surface = _Surface(V, G_hops, G, lambda w: _laplacian(V, F, w, index), F=F)
+    surface = _Surface(V, G_hops, G, lambda w: assemble_laplacian(V, F, w, index), F=F)
     return _pipeline(surface, idx, vals, squeeze, seconds, t0, method=method, partition=partition, weights=weights,
                      levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
                      iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, progress=progress)

@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import SampleError
 from ..tolerances import TOL
-from ..validate import _first, as_samples, bbox_diagonal, unit_scale
+from ..validate import first_entries, as_samples, bbox_diagonal, unit_scale
 
 __all__ = ["Samples", "snap_to_vertices", "field_names"]
 
@@ -186,7 +186,7 @@ def snap_to_vertices(V, points, *, max_distance=None):
         raise SampleError(f"sample positions have shape {P.shape}; pass a (k, 3) array with at least one row")
     bad = ~np.isfinite(P).all(axis=1)
     if bad.any():
-        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {_first(np.flatnonzero(bad))}")
+        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {first_entries(np.flatnonzero(bad))}")
     diag = bbox_diagonal(V)
     # the KD-tree compares squared distances: query in units of a power of two near the
     # mesh's size (exact), so that they neither overflow nor underflow, and scale back

@@ -119,7 +119,7 @@ def u_strip(h=0.02, *, gap=0.15, width=1.0, length=3.0):
     """
     from scipy.spatial import Delaunay
 
-    from manifill.mesh.topology import clean_mesh
+    from manifill.mesh.clean import clean_mesh
 
     r1 = gap / 2 + width
     dy = h * np.sqrt(3) / 2
@@ -170,7 +170,7 @@ def _pyvista_mesh(name, levels):
 
     from manifill.io.registry import read_mesh
     from manifill.mesh.subdivide import subdivide
-    from manifill.mesh.topology import clean_mesh
+    from manifill.mesh.clean import clean_mesh
     from manifill.validate import bbox_diagonal
 
     V, F = read_mesh(Path(ex.__file__).with_name(name))

@@ -21,7 +21,7 @@ import numpy as np
 
 import manifill
 from manifill.mesh.shapes import icosphere
-from manifill.mesh.topology import adjacency
+from manifill.mesh.edges import adjacency
 
 
 def great_circle_network(V, F):

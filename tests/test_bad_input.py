@@ -8,8 +8,7 @@ from conftest import assert_usage_error, files, run
 
 import manifill
 from manifill.errors import ReadError, SampleError
-from manifill.io.registry import read_mesh_file, write_mesh
-from manifill.io.samples import read_samples
+from manifill.io import read_mesh_file, read_samples, write_mesh
 from manifill.mesh.shapes import icosphere
 
 
@@ -58,7 +57,7 @@ def test_regression_ascii_stl_reads_without_warnings(tmp_path, capfd):
 @pytest.mark.parametrize("shape", [(1, 6, 6), (6, 1, 6), (6, 6, 1), (1, 1, 1)])
 def test_regression_flat_voxel_mask_is_filled_from_its_boundary(shape):
     # a mask one voxel thick is all boundary: its values come from the digital surface, nothing to fill
-    from manifill.solid.reconstruct_volume import digital_surface
+    from manifill.solid.boundary import digital_surface
 
     mask = np.ones(shape, dtype=bool)
     voxels, _, _, _ = digital_surface(mask)

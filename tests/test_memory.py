@@ -15,22 +15,23 @@ from scipy.sparse.linalg import splu
 
 import manifill.memory
 import manifill.solid.reconstruct_volume
+import manifill.solid.tetrahedralize
 import manifill.linalg.backends
 import manifill.mesh.subdivide
-import manifill.solid.tets
 import manifill.solid.fill
-import manifill.solid.voxels
 from manifill import OptionError, ResourceError, SampleError
 from manifill.mesh.laplacian import laplacian
 from manifill.memory import _available_bytes, available_bytes, human, lu_memory
 from manifill.mesh.shapes import grid, icosphere
-from manifill.solid.reconstruct_volume import (reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_memory,
-                            reconstruct_volume_tets)
+from manifill.solid.estimates import reconstruct_volume_memory
+from manifill.solid.reconstruct_volume import reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
 from manifill.linalg.backends import make_linear_solver
 from manifill.mesh.subdivide import check_subdivide, subdivide, subdivide_memory, subdivided_size
-from manifill.solid.tets import tet_count, tetrahedralize, tetrahedralize_memory
+from manifill.solid.tetrahedralize import tet_count, tetrahedralize, tetrahedralize_memory
 from manifill.solid.fill import VoxelFill, fill_memory, tet_fill, tet_fill_memory
-from manifill.solid.voxels import boundary_voxels, voxel_laplacian, voxelize, voxelize_memory
+from manifill.solid.boundary import boundary_voxels
+from manifill.solid.voxels import voxel_laplacian
+from manifill.solid.voxelize import voxelize, voxelize_memory
 
 GB = 10**9
 UNLIMITED = lambda which: (-1, -1)  # noqa: E731  getrlimit with no limits set
@@ -389,7 +390,7 @@ def test_tiny_max_volume_is_refused_with_the_real_memory(monkeypatch):
     avail = available_bytes()
     if avail is None or avail > 1e14:
         pytest.skip("no memory limit is known, or it is above 100 TB")
-    monkeypatch.setattr(manifill.solid.tets.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
+    monkeypatch.setattr(manifill.solid.tetrahedralize.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
     V, F = icosphere(2)
     msg = refused_quietly(tetrahedralize, V, F, max_volume=1e-12)
     assert msg.startswith("tetrahedralising with max_volume=1e-12 (~6,070,567,0")  # 1.5 * 4.047 / 1e-12
@@ -400,7 +401,7 @@ def test_tiny_max_volume_is_refused_with_the_real_memory(monkeypatch):
 
 
 def test_tetrahedralize_refused_before_tetgen_starts(monkeypatch, little_memory):
-    monkeypatch.setattr(manifill.solid.tets.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
+    monkeypatch.setattr(manifill.solid.tetrahedralize.subprocess, "run", lambda *a, **k: pytest.fail("tetgen started"))
     msg = refused_quietly(tetrahedralize, *icosphere(1))
     assert msg.startswith("tetrahedralising with no max_volume (~160 tets)")
 
@@ -470,9 +471,10 @@ def test_tet_mesh_and_mask_input_refused_before_steps_1_to_6(monkeypatch):
     V, F = icosphere(1)
     TV, TT = tetrahedralize(V, F, max_volume=0.01)
     monkeypatch.setattr(manifill.memory, "available_bytes", lambda: 1000)
-    monkeypatch.setattr(manifill.solid.reconstruct_volume, "reconstruct", lambda *a, **k: pytest.fail("surface steps ran"))
-    monkeypatch.setattr(manifill.solid.reconstruct_volume, "_pipeline", lambda *a, **k: pytest.fail("surface steps ran"))
-    monkeypatch.setattr(manifill.solid.reconstruct_volume, "digital_surface", lambda *a, **k: pytest.fail("digital surface made"))
+    rv = manifill.solid.reconstruct_volume
+    monkeypatch.setattr(rv, "reconstruct", lambda *a, **k: pytest.fail("surface steps ran"))
+    monkeypatch.setattr(rv, "reconstruct_surface", lambda *a, **k: pytest.fail("surface steps ran"))
+    monkeypatch.setattr(rv, "digital_surface", lambda *a, **k: pytest.fail("digital surface made"))
     msg = refused_quietly(reconstruct_volume_tets, TV, TT, [0, 1], [1.0, 2.0], fill_solver="direct")
     assert msg.startswith(f"the harmonic fill of {len(TV) - len(V):,} tet vertices (direct) needs about")
     assert "fill_solver='amg' (CLI --fill-solver amg)" in msg
@@ -485,7 +487,7 @@ def test_voxel_fill_refused_before_its_components(monkeypatch, little_memory):
     monkeypatch.setattr(manifill.solid.fill, "voxel_components", lambda *a, **k: pytest.fail("labelled"))
     mask = np.ones((12, 12, 12), dtype=bool)
     fixed = boundary_voxels(mask)
-    msg = refused_quietly(VoxelFill, mask, fixed)
+    msg = refused_quietly(VoxelFill, mask, np.argwhere(fixed))
     assert msg.startswith("the harmonic fill of 1,000 voxels (multigrid) needs about")
 
 

@@ -23,7 +23,8 @@ from manifill.surface.curve_values import curve_graph, vertex_normals
 from manifill.mesh.graph import mesh_graph
 from manifill.surface.samples import Samples, snap_to_vertices
 from manifill.mesh.shapes import icosphere
-from manifill.mesh.topology import clean_mesh, mesh_info
+from manifill.mesh.clean import clean_mesh
+from manifill.mesh.topology import mesh_info
 from manifill.validate import (
     UNIT_WINDOW,
     as_mesh,
@@ -349,16 +350,13 @@ def test_far_points_of_a_tiny_mesh_are_reported_not_crashed():
 
 from manifill.linalg import gridmg as gridsolver  # noqa: E402
 from manifill.errors import ResourceError  # noqa: E402
-from manifill.solid.reconstruct_volume import reconstruct_volume, reconstruct_volume_memory, surface_to_points  # noqa: E402
-from manifill.solid.tets import (  # noqa: E402
-    boundary_faces,
-    tet_count,
-    tet_volumes,
-    tetrahedralize,
-    tetrahedralize_memory,
-)
+from manifill.solid.boundary import boundary_voxels, surface_to_points  # noqa: E402
+from manifill.solid.estimates import reconstruct_volume_memory  # noqa: E402
+from manifill.solid.reconstruct_volume import reconstruct_volume  # noqa: E402
+from manifill.solid.tetrahedralize import tet_count, tetrahedralize, tetrahedralize_memory  # noqa: E402
+from manifill.solid.tets import boundary_faces, tet_volumes  # noqa: E402
 from manifill.solid.fill import VoxelFill, harmonic_fill, tet_fill  # noqa: E402
-from manifill.solid.voxels import boundary_voxels, voxelize, voxelize_memory  # noqa: E402
+from manifill.solid.voxelize import voxelize, voxelize_memory  # noqa: E402
 
 _solid_reference = {}
 
@@ -416,11 +414,12 @@ def test_harmonic_fill_is_scale_free(monkeypatch, s, c, solver):
     mask, fixed = voxel_ball()
     g = np.random.default_rng(4).standard_normal(mask.shape + (2,))
     h = np.array([1.0, 2.0, 1.5])
-    ref = solid_reference(("fill", c, solver), lambda: harmonic_fill(mask, fixed, g, spacing=h, connectivity=c,
-                                                                     solver=solver))
-    assert_same(harmonic_fill(mask, fixed, g, spacing=h * s, connectivity=c, solver=solver), ref)
-    fill = VoxelFill(mask, fixed, spacing=h * s, connectivity=c, solver=solver)
-    assert_same(fill.solve(g[..., 0]), ref[..., 0])
+    voxels = np.argwhere(fixed)
+    ref = solid_reference(("fill", c, solver), lambda: harmonic_fill(mask, voxels, g[fixed], spacing=h,
+                                                                     connectivity=c, solver=solver))
+    assert_same(harmonic_fill(mask, voxels, g[fixed], spacing=h * s, connectivity=c, solver=solver), ref)
+    fill = VoxelFill(mask, voxels, spacing=h * s, connectivity=c, solver=solver)
+    assert_same(fill.solve(g[fixed][:, 0]), ref[..., 0])
     assert fill.report["spacing"] == (h * s).tolist()  # reported in the user's units
     if solver != "direct":
         assert fill.report.get("levels", 2) >= 2 and "fallback" not in fill.report

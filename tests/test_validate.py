@@ -5,7 +5,19 @@ import pytest
 
 from conftest import grid, single_triangle
 from manifill import HarmonicSolver, ManifillError, MeshError, OptionError, SampleError, harmonic, laplacian
-from manifill.validate import as_indices, as_mesh, as_samples, as_values, check_option
+from manifill.validate import (
+    as_cells,
+    as_indices,
+    as_laplacian,
+    as_mask,
+    as_mesh,
+    as_origin,
+    as_samples,
+    as_spacing,
+    as_tets,
+    as_values,
+    check_option,
+)
 
 V9, F8 = grid(3)  # 9 vertices, 8 faces, vertex i at ((i % 3) / 2, (i // 3) / 2)
 
@@ -135,18 +147,18 @@ def test_small_but_nondegenerate_faces_accepted():
 # ---------------------------------------------------------------------------
 
 BAD_INDICES = {
-    "2d": ([[1], [2]], ["b has shape (2, 1)"]),
-    "scalar": (3, ["b has shape ()"]),
-    "empty": ([], ["b is empty"]),
-    "ragged": ([[1], [2, 3]], ["b is ragged"]),
-    "fraction": ([1.5, 2.0], ["b has dtype float64"]),
-    "nan": ([np.nan, 2.0], ["b has dtype float64"]),
-    "bool_mask": (np.arange(9) > 4, ["b has dtype bool"]),
-    "huge_python_int": ([2**70], ["b has dtype object"]),
-    "negative": ([0, -1, 3], ["b holds vertex -1, outside 0..8", "entries 1"]),
-    "too_big": ([0, 9, 3], ["b holds vertex 9, outside 0..8", "entries 1"]),
-    "both_ends": ([-2, 4, 11], ["b holds vertex -2", "entries 0, 2"]),
-    "duplicate": ([3, 1, 3, 1, 5], ["b lists vertex 1 more than once", "2 repeated vertices"]),
+    "2d": ([[1], [2]], ["idx has shape (2, 1)"]),
+    "scalar": (3, ["idx has shape ()"]),
+    "empty": ([], ["idx is empty"]),
+    "ragged": ([[1], [2, 3]], ["idx is ragged"]),
+    "fraction": ([1.5, 2.0], ["idx has dtype float64"]),
+    "nan": ([np.nan, 2.0], ["idx has dtype float64"]),
+    "bool_mask": (np.arange(9) > 4, ["idx has dtype bool"]),
+    "huge_python_int": ([2**70], ["idx has dtype object"]),
+    "negative": ([0, -1, 3], ["idx holds vertex -1, outside 0..8", "entries 1"]),
+    "too_big": ([0, 9, 3], ["idx holds vertex 9, outside 0..8", "entries 1"]),
+    "both_ends": ([-2, 4, 11], ["idx holds vertex -2", "entries 0, 2"]),
+    "duplicate": ([3, 1, 3, 1, 5], ["idx lists vertex 1 more than once", "2 repeated vertices"]),
 }
 
 
@@ -167,11 +179,14 @@ def test_bad_indices_surface_through_harmonic(name):
 
 
 def test_as_indices_names_the_argument():
-    with pytest.raises(SampleError, match=r"^idx holds vertex 9"):
-        as_indices([9], 9, what="idx")
+    with pytest.raises(SampleError, match=r"^fixed holds vertex 9"):
+        as_indices([9], 9, what="fixed")
+    with pytest.raises(SampleError, match=r"^heights has NaN"):
+        as_values([np.nan], 1, what="heights")
 
 
-@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64, float])
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64,
+                                   float])
 def test_as_indices_accepts_any_integer_dtype_in_order(dtype):
     b = as_indices(np.array([8, 0, 3], dtype=dtype), 9)
     assert b.dtype == np.int64 and b.tolist() == [8, 0, 3]
@@ -192,14 +207,14 @@ def test_as_indices_integral_float_too_large_for_int64_is_rejected():
 # ---------------------------------------------------------------------------
 
 BAD_VALUES = {
-    "too_few": ([1.0, 2.0, 3.0], 4, ["bc has shape (3,) for 4 vertices"]),
-    "too_many_rows": (np.zeros((5, 2)), 4, ["bc has shape (5, 2) for 4 vertices"]),
-    "3d": (np.zeros((4, 2, 2)), 4, ["bc has shape (4, 2, 2)"]),
-    "scalar": (1.0, 4, ["bc has shape () for 4 vertices"]),
-    "no_columns": (np.zeros((4, 0)), 4, ["bc has no columns"]),
-    "text": (["a", "b", "c", "d"], 4, ["bc could not be read as numbers"]),
-    "ragged": ([[1.0], [1.0, 2.0]], 2, ["bc could not be read as numbers"]),
-    "nan": ([0.0, np.nan, 1.0, np.nan], 4, ["bc has NaN or infinite values in rows 1, 3"]),
+    "too_few": ([1.0, 2.0, 3.0], 4, ["vals has shape (3,) for 4 vertices"]),
+    "too_many_rows": (np.zeros((5, 2)), 4, ["vals has shape (5, 2) for 4 vertices"]),
+    "3d": (np.zeros((4, 2, 2)), 4, ["vals has shape (4, 2, 2)"]),
+    "scalar": (1.0, 4, ["vals has shape () for 4 vertices"]),
+    "no_columns": (np.zeros((4, 0)), 4, ["vals has no columns"]),
+    "text": (["a", "b", "c", "d"], 4, ["vals could not be read as numbers"]),
+    "ragged": ([[1.0], [1.0, 2.0]], 2, ["vals could not be read as numbers"]),
+    "nan": ([0.0, np.nan, 1.0, np.nan], 4, ["vals has NaN or infinite values in rows 1, 3"]),
     "inf_in_a_column": ([[0.0, 1.0], [0.0, np.inf], [1.0, 1.0]], 3, ["rows 1"]),
 }
 
@@ -320,3 +335,145 @@ def test_degenerate_faces_through_harmonic_depend_on_weights():
         harmonic(V, F, [0, 10], [0.0, 1.0], weights="cotan")
     x = harmonic(V, F, [0, 10], [0.0, 1.0], weights="uniform")
     assert np.isfinite(x).all()
+
+
+# ---------------------------------------------------------------------------
+# as_tets and as_cells
+# ---------------------------------------------------------------------------
+
+TV = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]])
+TT = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+
+BAD_TETS = {
+    "V_flat": (TV[:, :2], TT, ["V has shape (5, 2)", "(n, 3)"]),
+    "V_4_columns": (np.zeros((5, 4)), TT, ["V has shape (5, 4)"]),
+    "V_nan": (replaced(TV, (4, 2), np.nan), TT, ["1 vertices have NaN or infinite coordinates", "rows 4"]),
+    "T_triangles": (TV, TT[:, :3], ["T has shape (2, 3)", "tetrahedra"]),
+    "T_empty": (TV, np.zeros((0, 4), int), ["T is empty"]),
+    "T_fraction": (TV, TT + 0.25, ["T has dtype float64"]),
+    "T_negative": (TV, replaced(TT, (1, 3), -1), ["T refers to vertex -1, outside 0..4", "rows 1"]),
+    "T_too_big": (TV, replaced(TT, (0, 0), 5), ["T refers to vertex 5, outside 0..4", "rows 0"]),
+    "T_both_ends": (TV, replaced(replaced(TT, (0, 0), 7), (1, 0), -1), ["T refers to vertex -1", "rows 0, 1"]),
+    "flat_tet": (np.vstack([TV, [[2.0, 0, 0]]]), np.vstack([TT, [[0, 1, 5, 2]]]), ["1 tetrahedra have zero volume"]),
+    "unreferenced": (np.vstack([TV, [[5.0, 5, 5]]]), TT, ["1 vertices are used by no tetrahedron", "vertices 5"]),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_TETS))
+def test_as_tets_rejects(name):
+    V, T, fragments = BAD_TETS[name]
+    with pytest.raises(MeshError) as exc:
+        as_tets(V, T)
+    check_error(exc, MeshError, *fragments)
+
+
+def test_as_tets_accepts_either_orientation_and_integral_floats():
+    V, T = as_tets(TV.tolist(), TT[:, ::-1].astype(float))
+    assert V.dtype == np.float64 and T.dtype == np.int64
+    np.testing.assert_array_equal(T, TT[:, ::-1])
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.uint32, np.int64])
+def test_as_cells_any_integer_dtype_and_the_upper_end(dtype):
+    np.testing.assert_array_equal(as_cells(TT.astype(dtype), 5, width=4), TT)
+    with pytest.raises(MeshError) as exc:
+        as_cells(TT.astype(dtype), 4, width=4, what="T", kind="tetrahedra")
+    check_error(exc, MeshError, "T refers to vertex 4, outside 0..3", "rows 1")
+
+
+# ---------------------------------------------------------------------------
+# voxel grids: the mask, its spacing and origin are the domain (MeshError)
+# ---------------------------------------------------------------------------
+
+MASK = np.zeros((3, 4, 5), dtype=bool)
+MASK[1, 1:3, 1:4] = True
+
+BAD_MASKS = {
+    "2d": (np.ones((4, 4), dtype=bool), ["mask has shape (4, 4)", "3-D"]),
+    "4d": (np.ones((2, 2, 2, 2), dtype=bool), ["mask has shape (2, 2, 2, 2)"]),
+    "ragged": ([[[0, 1]], [[1]]], ["mask is ragged"]),
+    "empty_grid": (np.zeros((0, 3, 3), dtype=bool), ["mask has no voxel set"]),
+    "no_voxel": (np.zeros((3, 3, 3)), ["mask has no voxel set"]),
+    "twos": (MASK * 2, ["mask holds values other than 0 and 1 (int64)"]),
+    "halves": (MASK * 0.5, ["other than 0 and 1 (float64)"]),
+    "nan": (np.where(MASK, np.nan, 0.0), ["other than 0 and 1"]),
+    "text": (np.full((2, 2, 2), "x"), ["other than 0 and 1"]),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_MASKS))
+def test_as_mask_rejects_with_a_mesh_error(name):
+    mask, fragments = BAD_MASKS[name]
+    with pytest.raises(MeshError) as exc:
+        as_mask(mask)
+    check_error(exc, MeshError, *fragments)
+
+
+def test_as_mask_of_fixed_voxels_is_a_sample_error():
+    with pytest.raises(SampleError) as exc:
+        as_mask(MASK[:, :, :-1], what="fixed", shape=MASK.shape, error=SampleError)
+    check_error(exc, SampleError, "fixed has shape (3, 4, 4) but the mask has (3, 4, 5)")
+    with pytest.raises(SampleError) as exc:
+        as_mask(np.zeros_like(MASK), what="fixed", error=SampleError)
+    check_error(exc, SampleError, "fixed has no voxel set")
+
+
+@pytest.mark.parametrize("dtype", [bool, np.uint8, np.int64, np.float32])
+def test_as_mask_accepts_zeros_and_ones_of_any_dtype(dtype):
+    m = as_mask(MASK.astype(dtype), shape=(3, 4, 5))
+    assert m.dtype == bool and m.flags.c_contiguous
+    np.testing.assert_array_equal(m, MASK)
+
+
+@pytest.mark.parametrize("bad", [(1, 2), (1, 2, 3, 4), (0, 1, 1), (1, -1, 1), (np.inf, 1, 1), (np.nan, 1, 1), None,
+                                 "abc", (1, "a", 2), 0.0, []])
+def test_as_spacing_rejects_with_a_mesh_error(bad):
+    with pytest.raises(MeshError) as exc:
+        as_spacing(bad)
+    check_error(exc, MeshError, "spacing", "spacing=(1.0, 1.0, 2.5)")
+
+
+def test_as_spacing_one_number_means_cubes():
+    assert as_spacing(2).tolist() == [2.0, 2.0, 2.0]
+    assert as_spacing([1, 2, 3.5]).tolist() == [1.0, 2.0, 3.5] and as_spacing((1, 1, 1)).dtype == np.float64
+
+
+@pytest.mark.parametrize("bad", [(0, 0), (0, 0, 0, 0), (np.nan, 0, 0), (0, -np.inf, 0), None, "abc", 1.0])
+def test_as_origin_rejects_with_a_mesh_error(bad):
+    with pytest.raises(MeshError) as exc:
+        as_origin(bad)
+    check_error(exc, MeshError, "origin", "three finite numbers")
+
+
+def test_as_origin_accepts_negative_and_far_origins():
+    assert as_origin((-1, 0, 1e300)).tolist() == [-1.0, 0.0, 1e300]
+
+
+# ---------------------------------------------------------------------------
+# a user's Laplacian (MeshError: it stands for the mesh)
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "L, fragments",
+    [
+        (np.ones((3, 4)), ["L has shape (3, 4)", "square"]),
+        (np.ones(3), ["L has shape (3,)"]),
+        (np.array([[1.0, np.nan], [np.nan, 1.0]]), ["L has NaN or infinite entries"]),
+        (np.array([[np.inf, 0.0], [0.0, 1.0]]), ["L has NaN or infinite entries"]),
+        (np.array([["a", "b"], ["c", "d"]]), ["L could not be read as a sparse matrix"]),
+        ("L", ["L could not be read"]),
+    ],
+    ids=["rectangular", "vector", "nan", "inf", "text", "string"],
+)
+def test_as_laplacian_rejects_with_a_mesh_error(L, fragments):
+    with pytest.raises(MeshError) as exc:
+        as_laplacian(L)
+    check_error(exc, MeshError, *fragments)
+
+
+def test_as_laplacian_returns_float_csr():
+    L = laplacian(V9, F8)
+    A = as_laplacian(L.astype(np.float32).tocoo())
+    assert A.format == "csr" and A.dtype == np.float64
+    np.testing.assert_allclose(A.toarray(), L.toarray(), rtol=1e-7)

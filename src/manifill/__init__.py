@@ -1,49 +1,64 @@
 """manifill: reconstruct a smooth field over a surface or a solid from a few sample values.
 
 The method of Chen & Luo, *Harmonic Functions for Data Reconstruction on 3D
-Manifolds*, with the mesh left as it is. The modules follow the pipeline:
+Manifolds*, with the mesh left as it is. Every public name is importable from here;
+the subpackages are the layers (``docs/ARCHITECTURE.md`` draws them):
 
-- :mod:`manifill.validate` - the one validation layer (meshes, samples, options)
-- :mod:`manifill.mesh.topology` - edges, components, boundary loops, genus, cleaning
-- :mod:`manifill.surface.samples` - sample positions snapped to vertices
-- :mod:`manifill.mesh.graph` - many-source shortest paths and Voronoi cells
-- :mod:`manifill.surface.gradual` - Step 1: gradual variation, levels, GVF
-- :mod:`manifill.partition` - Steps 2-3: curves through the samples
-- :mod:`manifill.surface.curve_values` - Step 4: values on the curves
-- :mod:`manifill.laplacian` - uniform, cotangent, intrinsic Delaunay and robust weights
-- :mod:`manifill.linalg.backends`, :mod:`manifill.linalg.amg` - direct, AMG and the paper's iteration
-- :mod:`manifill.harmonic` - Steps 5-6: the harmonic (Dirichlet) fill
-- :mod:`manifill.reconstruct` - Steps 1-6 in one call
-- :mod:`manifill.solid.voxels`, :mod:`manifill.solid.tets` - solids as voxels and as tetrahedra
-- :mod:`manifill.solid.fill`, :mod:`manifill.linalg.gridmg` - Step 8: the harmonic fill of a solid
-- :mod:`manifill.solid.reconstruct_volume` - Steps 1-8 on a solid in one call
-- :mod:`manifill.memory` - memory estimates before large solves
-- :mod:`manifill.io.registry` - the format registry: meshes and fields on disk; :mod:`manifill.io.samples` - samples
-- :mod:`manifill.io.vtkxml`, :mod:`manifill.io.vtklegacy`, :mod:`manifill.io.neuro` - VTK XML, legacy VTK, GIfTI/FreeSurfer
-- :mod:`manifill.mesh.objects` - pyvista, trimesh and meshio objects in and out
+- :mod:`manifill.mesh` - surfaces as arrays: edges, topology, geometry, cleaning,
+  stiffness and mass matrices, graph distances, built-in shapes, subdivision
+- :mod:`manifill.linalg` - the solve core: a quadratic energy with fixed values
+  (:class:`QuadraticSolver`), its backends, the one PCG loop, AMG and voxel multigrid
+- :mod:`manifill.surface` - Steps 1-6 on a surface: gradual variation (1), the
+  partition (2-3), curve values (4), the harmonic fill of the patches (5-6)
+- :mod:`manifill.solid` - Steps 7-8: the solid's boundary (voxelise, tetrahedralise,
+  the digital surface) and the harmonic fill of the inside
+- :mod:`manifill.io` - files in and out, one registry dispatched by suffix
+- :mod:`manifill.viz` - pictures and the interactive viewer
 - :mod:`manifill.cli` - the command line, one module per subcommand
+- base modules: :mod:`manifill.errors`, :mod:`manifill.tolerances`,
+  :mod:`manifill.validate`, :mod:`manifill.results`, :mod:`manifill.memory`,
+  :mod:`manifill.progress`, :mod:`manifill.report`
 """
 
 __version__ = "0.1.0"
 
-from .errors import (  # noqa: F401
-    ManifillError,
-    MeshError,
-    OptionError,
-    ReadError,
-    ResourceError,
-    SampleError,
-    SolveError,
-    WriteError,
-)
-from .surface.harmonic import HarmonicSolver, harmonic  # noqa: F401
-from .mesh.laplacian import laplacian  # noqa: F401
-from .surface.reconstruct import Reconstruction, reconstruct  # noqa: F401
-from .solid.reconstruct_volume import (  # noqa: F401
-    VolumeReconstruction,
-    reconstruct_volume,
-    reconstruct_volume_mask,
-    reconstruct_volume_tets,
-)
-from .mesh.topology import clean_mesh, mesh_info  # noqa: F401
-from .solid.fill import VoxelFill, harmonic_fill, tet_fill  # noqa: F401
+from .errors import (ManifillError, MeshError, OptionError, ReadError, ResourceError, SampleError, SolveError,
+                     WriteError)
+from .io import (read_mesh, read_mesh_file, read_samples, read_tets, read_vti, write_mesh, write_tets, write_values,
+                 write_vti)
+from .linalg.quadratic import QuadraticSolver, min_quad_with_fixed
+from .mesh.clean import clean_mesh
+from .mesh.laplacian import laplacian, mass_matrix
+from .mesh.topology import mesh_info
+from .results import Result
+from .solid.boundary import digital_surface
+from .solid.fill import VoxelFill, harmonic_fill, tet_fill
+from .solid.reconstruct_volume import (VolumeReconstruction, reconstruct_volume, reconstruct_volume_mask,
+                                       reconstruct_volume_tets)
+from .solid.tetrahedralize import tetrahedralize
+from .solid.voxelize import voxelize
+from .surface.curve_values import CurveValues, values_on_curves
+from .surface.fill import fill_patches
+from .surface.gradual import GradualCheck, check_gradual
+from .surface.harmonic import HarmonicSolver, harmonic
+from .surface.partition import Partition, partition
+from .surface.reconstruct import Reconstruction, reconstruct, reconstruct_surface
+from .surface.surface import Surface
+
+__all__ = [
+    # errors
+    "ManifillError", "MeshError", "SampleError", "OptionError", "SolveError", "ReadError", "WriteError",
+    "ResourceError",
+    # surfaces: the pipeline (Steps 1-6) and its steps
+    "reconstruct", "Reconstruction", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
+    "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches",
+    # the harmonic problem and the operators
+    "harmonic", "HarmonicSolver", "laplacian", "mass_matrix", "QuadraticSolver", "min_quad_with_fixed",
+    "mesh_info", "clean_mesh",
+    # solids (Steps 7-8)
+    "reconstruct_volume", "reconstruct_volume_tets", "reconstruct_volume_mask", "VolumeReconstruction",
+    "voxelize", "tetrahedralize", "digital_surface", "harmonic_fill", "VoxelFill", "tet_fill",
+    # results and files
+    "Result", "read_mesh", "read_mesh_file", "write_mesh", "read_samples", "write_values", "read_tets",
+    "write_tets", "read_vti", "write_vti",
+]

@@ -21,11 +21,15 @@ class ManifillError(ValueError):
 
 
 class MeshError(ManifillError):
-    """The mesh ``(V, F)`` is malformed or unusable as given."""
+    """The domain is malformed or unusable as given.
+
+    A triangle mesh ``(V, F)``, a tetrahedral mesh ``(V, T)``, a voxel mask with its
+    spacing and origin, or a Laplacian given in place of a mesh.
+    """
 
 
 class SampleError(ManifillError):
-    """The samples ``(idx, vals)`` or the fixed set ``(b, bc)`` are malformed."""
+    """The samples ``(idx, vals)`` are malformed: their indices, values, positions or fixed voxels."""
 
 
 class SolveError(ManifillError):

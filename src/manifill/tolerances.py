@@ -24,6 +24,45 @@ class Tolerances:
     iterate_tol : float
         The paper's averaging iteration stops when the largest change in one sweep
         falls below ``iterate_tol`` times the range of the fixed values.
+    grid_rtol : float
+        Relative residual at which the voxel fill (:class:`manifill.solid.fill.VoxelFill`,
+        multigrid or sparse) stops, and the default of :class:`manifill.linalg.gridmg.GridMultigrid`.
+    norm_tiny, norm_huge : float
+        A sum of squares outside ``(norm_tiny, norm_huge)`` may have under- or
+        overflowed: the conjugate gradients' norm then rescales the vector first.
+    sample_conflict : float
+        Two samples at one vertex conflict when their values differ by more than
+        ``sample_conflict`` times the largest absolute sample value.
+    graph_length_floor : float
+        Edge lengths of the ``length`` mesh graph, in units of the mean edge
+        length, are at least ``graph_length_floor`` (so no edge has length 0).
+    robust_mollify : float
+        Mollification factor of ``weights='robust'`` (robust-laplacian's
+        ``mollify_factor``, relative to the mean edge length).
+    vti_direction : float
+        A VTI file's ``Direction`` matrix counts as the identity (an axis-aligned
+        grid) when no entry differs from it by more than ``vti_direction``.
+    lipschitz_rtol : float
+        Step 1's Lipschitz search (:func:`manifill.surface.gradual.lipschitz_constant`)
+        ignores envelope shortfalls and ratio gains below ``lipschitz_rtol`` relative
+        to the values (round-off).
+    level_slack : float
+        Level indices carried in floats (envelopes, distances in hops) are compared,
+        floored and ceiled with this absolute slack (:mod:`manifill.surface.gradual`).
+    level_tie : float
+        A sample within ``level_tie`` level steps of a rounding midpoint is a tie,
+        and Step 1 verifies the rounded levels with a shortest-path pass.
+    tiny : float
+        Floor of lengths and distances that are divided by (Steps 1 and 4), so a
+        zero length gives a huge ratio, not a division by zero.
+    gradient_rcond : float
+        Step 4's gradient fits (:mod:`manifill.surface.curve_values`): singular
+        values below ``gradient_rcond`` times the largest count as zero; a quadratic
+        fit with one is dropped for the linear one.
+    grid_count : float
+        :func:`manifill.solid.voxelize.voxel_grid` counts ``ceil(side / h - grid_count)``
+        voxels per side: a side within ``grid_count`` voxels of a whole number of
+        them (round-off in ``side / h``) gets no extra voxel.
     """
 
     weld: float = 1e-12
@@ -31,6 +70,19 @@ class Tolerances:
     snap: float = 0.05
     amg_rtol: float = 1e-10
     iterate_tol: float = 1e-10
+    grid_rtol: float = 1e-10
+    norm_tiny: float = 1e-280
+    norm_huge: float = 1e280
+    sample_conflict: float = 1e-12
+    graph_length_floor: float = 1e-12
+    robust_mollify: float = 1e-5
+    vti_direction: float = 1e-12
+    lipschitz_rtol: float = 1e-12
+    level_slack: float = 1e-9
+    level_tie: float = 1e-6
+    tiny: float = 1e-300
+    gradient_rcond: float = 1e-8
+    grid_count: float = 1e-9
 
 
 TOL = Tolerances()

@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 import manifill
 from manifill import harmonic, mesh_info
 from conftest import assert_usage_error, files, run
-from manifill.io.registry import read_mesh, write_mesh
+from manifill.io import read_mesh, write_mesh
 from manifill.mesh.shapes import grid, icosphere
 
 pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
@@ -521,3 +521,43 @@ def test_demo_into_an_existing_file_exits_2(tmp_path, capsys):
     target.write_text("x")
     code, out, err = run(capsys, "demo", "-o", target)
     assert_usage_error(code, out, err)
+
+
+def test_the_command_line_holds_no_numerics():
+    """No module of manifill.cli imports numpy or scipy: the numbers come from the library."""
+    import ast
+
+    import manifill.cli
+
+    for path in sorted(Path(manifill.cli.__file__).parent.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            for name in names:
+                assert name.split(".")[0] not in ("numpy", "scipy"), f"{path.name} imports {name}"
+
+
+@pytest.fixture
+def bars(monkeypatch):
+    """Every progress bar a command opens, recording its total and the steps the library told it."""
+    import manifill.progress
+
+    opened = []
+
+    class Recorder(manifill.progress.StepBar):
+        def __init__(self, total, **options):
+            super().__init__(total, **options)
+            self.total = total
+            opened.append(self)
+
+    monkeypatch.setattr(manifill.progress, "StepBar", Recorder)
+    return opened
+
+
+@pytest.mark.parametrize("method", ["gvf-harmonic", "harmonic", "gvf"])
+def test_progress_total_is_the_steps_run(tmp_path, capsys, sphere, bars, method):
+    code, out, err = run(capsys, "reconstruct", sphere["path"], sphere["samples"], "-o", tmp_path / "o.vtu",
+                         "--method", method)
+    assert code == 0, err
+    (bar,) = bars
+    assert bar.total == len(bar.steps) and bar.steps[-1] in ("harmonic fill", "gvf")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import assert_usage_error, files, run
 
-from manifill.io.registry import write_mesh
+from manifill.io import write_mesh
 from manifill.mesh.shapes import icosphere
 
 

@@ -8,11 +8,12 @@ import pytest
 
 import manifill.memory
 from conftest import assert_usage_error, files, run
-from manifill.io.registry import write_mesh
 from manifill.mesh.shapes import icosphere
-from manifill.solid.tets import boundary_faces, tetrahedralize
-from manifill.io.solids import read_tets, read_vti, write_tets
-from manifill.solid.voxels import boundary_voxels, voxel_centres
+from manifill.solid.tetrahedralize import tetrahedralize
+from manifill.solid.tets import boundary_faces
+from manifill.io import read_tets, read_vti, write_mesh, write_tets
+from manifill.solid.boundary import boundary_voxels
+from manifill.solid.voxels import voxel_centres
 
 needs_tetgen = pytest.mark.skipif(importlib.util.find_spec("tetgen") is None, reason="tetgen is not installed")
 
@@ -186,7 +187,7 @@ def test_npy_mask_with_position_samples(tmp_path, capsys):
 
 
 def test_vti_mask_takes_its_spacing(tmp_path, capsys):
-    from manifill.io.solids import write_vti
+    from manifill.io import write_vti
 
     mask = voxel_ball((10, 11, 12), 4.2)
     write_vti(tmp_path / "seg.vti", {"mask": mask, "noise": np.zeros(mask.shape)}, spacing=(0.5, 0.5, 1.0),
@@ -321,3 +322,93 @@ def test_bad_options(tmp_path, capsys, args, words):
                          *args)
     assert words in assert_usage_error(code, out, err)
     assert not (tmp_path / "out.vti").exists()
+
+
+# ---------------------------------------------------------------------------
+# options reach the library as given (never renamed or dropped)
+# ---------------------------------------------------------------------------
+
+
+@needs_tetgen
+def test_multigrid_is_refused_for_a_tet_mesh_not_renamed(tmp_path, capsys, tet_ball):
+    code, out, err = run(capsys, "volume", tet_ball["path"], tet_ball["samples"], "-o", tmp_path / "out.vtu",
+                         "--fill-solver", "multigrid")
+    msg = assert_usage_error(code, out, err)
+    assert "fill_solver='multigrid' is for voxels" in msg and "--fill-solver" in msg
+    assert not (tmp_path / "out.vtu").exists()
+
+
+def test_multigrid_is_refused_for_a_surface_filled_as_tets(tmp_path, capsys, sphere):
+    code, out, err = run(capsys, "volume", sphere["path"], sphere["samples"], "-o", tmp_path / "out.vtu",
+                         "--form", "tets", "--fill-solver", "multigrid")
+    assert "fill_solver='multigrid' is for voxels" in assert_usage_error(code, out, err)
+    assert not (tmp_path / "out.vtu").exists()
+
+
+def test_weights_and_solver_reach_the_mask_reconstruction(tmp_path, capsys, monkeypatch):
+    import manifill.solid.reconstruct_volume as rv
+
+    mask = voxel_ball()
+    np.save(tmp_path / "mask.npy", mask)
+    on = np.argwhere(boundary_voxels(mask))
+    vertex_csv(tmp_path / "s.csv", np.arange(0, len(on), 7), on[::7, 0] * 1.0)
+    seen = []
+    real = rv.reconstruct_volume_mask
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(rv, "reconstruct_volume_mask", spy)
+    argv = ["volume", tmp_path / "mask.npy", tmp_path / "s.csv", "-o", tmp_path / "out.vti"]
+    # a digital surface has no triangles: cotangent weights are the library's one-line refusal
+    msg = assert_usage_error(*run(capsys, *argv, "--weights", "cotan"))
+    assert "weights='cotan' needs triangles" in msg and seen[-1]["weights"] == "cotan"
+    assert not (tmp_path / "out.vti").exists()
+    code, out, err = run(capsys, *argv, "--weights", "uniform", "--solver", "direct", "--fill-solver", "amg")
+    assert code == 0 and err == ""
+    assert (seen[-1]["weights"], seen[-1]["solver"], seen[-1]["fill_solver"]) == ("uniform", "direct", "amg")
+    code, out, err = run(capsys, *argv)  # no --weights: the library's default for a mask
+    assert code == 0 and "weights" not in seen[-1] and seen[-1]["solver"] == "auto"
+
+
+@pytest.fixture
+def bars(monkeypatch):
+    """Every progress bar a command opens, recording its total and the steps the library told it."""
+    import manifill.progress
+
+    opened = []
+
+    class Recorder(manifill.progress.StepBar):
+        def __init__(self, total, **options):
+            super().__init__(total, **options)
+            self.total = total
+            opened.append(self)
+
+    monkeypatch.setattr(manifill.progress, "StepBar", Recorder)
+    return opened
+
+
+@pytest.mark.parametrize("method", ["gvf-harmonic", "harmonic"])
+@pytest.mark.parametrize("kind", ["voxels", "tets", "tet mesh", "mask"])
+def test_progress_total_is_the_steps_run(tmp_path, capsys, sphere, bars, method, kind):
+    if kind in ("tets", "tet mesh") and importlib.util.find_spec("tetgen") is None:
+        pytest.skip("tetgen is not installed")
+    if kind in ("voxels", "tets"):
+        argv = [sphere["path"], sphere["samples"], "-o", tmp_path / ("o.vti" if kind == "voxels" else "o.vtu"),
+                "--form", kind] + (["--resolution", "10"] if kind == "voxels" else [])
+    elif kind == "tet mesh":
+        TV, TT = _ball()
+        write_tets(tmp_path / "ball.vtu", TV, TT)
+        b = np.unique(boundary_faces(TT))[::4]
+        argv = [tmp_path / "ball.vtu", vertex_csv(tmp_path / "b.csv", b, field(TV[b])), "-o", tmp_path / "o.vtu"]
+    else:
+        mask = voxel_ball()
+        np.save(tmp_path / "mask.npy", mask)
+        on = np.argwhere(boundary_voxels(mask))
+        argv = [tmp_path / "mask.npy", vertex_csv(tmp_path / "m.csv", np.arange(0, len(on), 7), on[::7, 0] * 1.0),
+                "-o", tmp_path / "o.vti"]
+    code, out, err = run(capsys, "volume", *argv, "--method", method)
+    assert code == 0, err
+    (bar,) = bars
+    assert bar.total == len(bar.steps) and bar.steps[-1] == "fill"

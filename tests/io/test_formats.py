@@ -10,16 +10,16 @@ import numpy as np
 import pytest
 
 from manifill.errors import MeshError, SampleError, WriteError
-from manifill.io.registry import (
+from manifill.io import (
     MESH_FORMATS,
     RESERVED_NAMES,
     check_field_names,
     format_note,
     read_mesh_file,
+    read_samples,
     stored_names,
     write_mesh,
 )
-from manifill.io.samples import read_samples
 from manifill.mesh.shapes import icosphere
 
 pv = pytest.importorskip("pyvista")
@@ -267,7 +267,7 @@ def tet_cube():
 
 @pytest.mark.parametrize("ext", [".vtu", ".vtk", ".msh"])
 def test_tet_outputs_open_with_their_fields_in_meshio_and_pyvista(tmp_path, ext):
-    from manifill.io.solids import read_tets, write_tets
+    from manifill.io import read_tets, write_tets
 
     V, T = tet_cube()
     data = {"temp": V[:, 0] + 2 * V[:, 2], "boundary_mask": np.ones(len(V), bool), "grad": np.tile([1.0, 0, 2], (8, 1))}
@@ -284,7 +284,7 @@ def test_tet_outputs_open_with_their_fields_in_meshio_and_pyvista(tmp_path, ext)
 
 
 def test_vti_output_opens_in_pyvista_with_names_and_voxel_positions(tmp_path):
-    from manifill.io.solids import read_vti, write_vti
+    from manifill.io import read_vti, write_vti
 
     field = np.arange(60.0).reshape(3, 4, 5)
     write_vti(tmp_path / "g.vti", {ODD: field, "boundary_mask": field > 30}, spacing=(1, 2, 0.5), origin=(5, 6, 7))
@@ -326,7 +326,7 @@ def test_volume_results_convert_to_pyvista_and_meshio_and_take_objects():
 
 
 def test_gmsh_output_prints_nothing(tmp_path, capfd):
-    from manifill.io.solids import write_tets
+    from manifill.io import write_tets
 
     V, T = tet_cube()
     write_tets(tmp_path / "t.msh", V, T, {"t": V[:, 0]})

@@ -41,11 +41,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from manifill.errors import ManifillError, MeshError, ReadError, SampleError
-from manifill.io.registry import read_mesh_file, write_mesh
 from manifill.surface.samples import Samples
-from manifill.io.samples import read_samples
 from manifill.mesh.shapes import icosphere
-from manifill.io.solids import read_mask, read_tets, read_vti, write_tets, write_vti
+from manifill.io import (read_mask, read_mesh_file, read_samples, read_tets, read_vti, write_mesh, write_tets,
+                         write_vti)
 
 COUNT = int(os.environ.get("MANIFILL_FUZZ_COUNT", "0") or 0)
 #: examples per (format, strategy) and per command: 60 in CI, N in the counting mode
@@ -632,7 +631,7 @@ CLI_CLASSES = ("exit 0", "exit 1", "exit 2", "FAIL")
 
 def _volume_samples():
     """Positions (and values) on the digital surface of the voxel mask, as a CSV seed."""
-    from manifill.solid.reconstruct_volume import digital_surface
+    from manifill.solid.boundary import digital_surface
 
     _, P, _, _ = digital_surface(_mask(), [1.0, 1.0, 1.0], [0.0, 0.0, 0.0], 6)
     rows = P[[0, len(P) // 3, len(P) // 2, len(P) - 1]]

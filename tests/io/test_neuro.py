@@ -5,9 +5,8 @@ import pytest
 from conftest import run
 
 from manifill.errors import ReadError, SampleError
-from manifill.io.registry import read_mesh_file
+from manifill.io import read_mesh_file, read_samples
 from manifill.surface.reconstruct import reconstruct
-from manifill.io.samples import read_samples
 from manifill.mesh.shapes import icosphere
 
 nib = pytest.importorskip("nibabel")

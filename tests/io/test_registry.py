@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from manifill.errors import ReadError, SampleError, WriteError
-from manifill.io.registry import MESH_FORMATS, read_mesh, read_mesh_file, read_samples, write_mesh, write_values
+from manifill.io import MESH_FORMATS, read_mesh, read_mesh_file, read_samples, write_mesh, write_values
 from manifill.mesh.shapes import grid, icosphere
 
 MESHES = {
@@ -449,3 +449,40 @@ def test_write_mesh_refuses_faces_beyond_the_vertices(tmp_path):
     with pytest.raises(WriteError, match="malformed"):
         write_mesh(tmp_path / "bad.ply", V, F + 100)
     assert leftovers(tmp_path) == []
+
+
+def test_positions_snap_only_to_the_vertices_given(tmp_path):
+    # a point beside vertex 0 but nearest to vertex 1 of the whole mesh lands on vertex 0 when only 0 and 2 may take it
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0]])
+    path = tmp_path / "pts.csv"
+    path.write_text("x,y,z,t\n0.9,0,0,5.0\n2.1,0,0,7.0\n")
+    S = read_samples(path, V)
+    np.testing.assert_array_equal(S.idx, [1, 2])
+    S = read_samples(path, V, snap_to=[2, 0])
+    np.testing.assert_array_equal(S.idx, [0, 2])  # V's numbers, sorted
+    np.testing.assert_array_equal(S.vals[:, 0], [5.0, 7.0])
+    np.testing.assert_allclose(S.snap_distance, [0.9, 0.1])
+    # samples by vertex index keep their vertices
+    (tmp_path / "idx.csv").write_text("vertex,t\n1,3.0\n")
+    np.testing.assert_array_equal(read_samples(tmp_path / "idx.csv", V, snap_to=[0, 2]).idx, [1])
+
+
+def test_the_front_door_exports_the_api_and_shadows_no_module():
+    import importlib
+    import pkgutil
+    import types
+
+    import manifill.io as io
+
+    modules = {m.name for m in pkgutil.iter_modules(io.__path__)}
+    assert {"registry", "samples", "solids", "files", "field_names", "vtkxml_read", "vtklegacy_read"} <= modules
+    for name in io.__all__:
+        assert not isinstance(getattr(io, name), types.ModuleType), name
+        assert name not in modules, f"manifill.io.{name} would hide the module of that name"
+    for name in modules:
+        assert isinstance(importlib.import_module(f"manifill.io.{name}"), types.ModuleType)
+        assert not hasattr(io, name) or isinstance(getattr(io, name), types.ModuleType), name
+    for name in ("read_mesh", "read_mesh_file", "write_mesh", "write_cells", "MESH_FORMATS", "read_samples",
+                 "write_values", "read_tets", "write_tets", "read_vti", "write_vti", "read_mask", "SAMPLE_MASK",
+                 "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK"):
+        assert name in io.__all__

@@ -12,7 +12,8 @@ import pytest
 
 from manifill import ReadError, WriteError
 from manifill.mesh.shapes import icosphere
-from manifill.io.vtklegacy import read_legacy, write_legacy
+from manifill.io.vtklegacy_read import read_legacy
+from manifill.io.vtklegacy_write import write_legacy
 
 
 def one_line(info, path):

@@ -15,7 +15,8 @@ import pytest
 
 from manifill import ReadError, WriteError
 from manifill.mesh.shapes import icosphere
-from manifill.io.vtkxml import read_imagedata, read_polydata, write_imagedata, write_polydata
+from manifill.io.vtkxml_read import read_imagedata, read_polydata
+from manifill.io.vtkxml_write import write_imagedata, write_polydata
 
 pv = pytest.importorskip("pyvista")
 vtk = pytest.importorskip("vtk")

@@ -1,4 +1,4 @@
-"""The Laplacians L = D - W: null space, symmetry, definiteness, references, invariances."""
+"""The Laplacians L = D - W and the lumped mass matrix M: null space, symmetry, references, invariances."""
 
 
 import numpy as np
@@ -21,7 +21,8 @@ from conftest import (
     relabel,
 )
 from manifill import MeshError, OptionError, laplacian
-from manifill.mesh.laplacian import cotangents
+from manifill.mesh.geometry import cotangents, face_areas, vertex_areas
+from manifill.mesh.laplacian import mass_matrix
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 mesh_params = pytest.mark.parametrize("mesh", list(MESHES), ids=list(MESHES))
@@ -332,3 +333,114 @@ def test_unreferenced_vertex_gets_an_empty_row(weights):
     L = dense(laplacian(V, F, weights=weights))
     assert not L[-1].any() and not L[:, -1].any()
     np.testing.assert_allclose(L[:-1, :-1], dense(laplacian(V[:-1], F, weights=weights)), rtol=0, atol=1e-14)
+
+
+# ---------------------------------------------------------------------------
+# the lumped mass matrix
+# ---------------------------------------------------------------------------
+
+MASS = ("barycentric", "voronoi")
+mass_params = pytest.mark.parametrize("kind", MASS)
+
+
+def jitter(V, F, seed=3, amount=0.05):
+    """The mesh with every vertex moved a little: no two triangles alike."""
+    return V + amount * np.random.default_rng(seed).standard_normal(V.shape), F
+
+
+def naive_areas(V, F):
+    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+
+
+def test_mass_single_right_triangle(single_triangle):
+    # area 1/2: a third per corner; Voronoi: the right angle is not obtuse, the circumcentre is the
+    # hypotenuse's midpoint, so the right-angled corner gets 1/4 and the two others 1/8 each
+    V, F = single_triangle
+    np.testing.assert_allclose(mass_matrix(V, F).diagonal(), [1 / 6] * 3, rtol=1e-15)
+    np.testing.assert_allclose(mass_matrix(V, F, kind="voronoi").diagonal(), [1 / 4, 1 / 8, 1 / 8], rtol=1e-15)
+
+
+def test_mass_voronoi_equilateral_and_obtuse():
+    # equilateral: the Voronoi parts are the thirds; obtuse: half to the obtuse corner, quarters to the others
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0.5, np.sqrt(3) / 2, 0]])
+    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], kind="voronoi").diagonal(), [np.sqrt(3) / 12] * 3,
+                               rtol=1e-14)
+    V = np.array([[0.0, 0, 0], [4, 0, 0], [2, 0.5, 0]])  # obtuse at vertex 2, area 1
+    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], kind="voronoi").diagonal(), [0.25, 0.25, 0.5],
+                               rtol=1e-15)
+    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]]).diagonal(), [1 / 3] * 3, rtol=1e-15)
+
+
+@pytest.mark.parametrize("kind, igl_kind", [("barycentric", "MASSMATRIX_TYPE_BARYCENTRIC"),
+                                            ("voronoi", "MASSMATRIX_TYPE_VORONOI")])
+@pytest.mark.parametrize("mesh", [irregular, obtuse, lambda: jitter(*icosphere(2)), lambda: jitter(*grid(6))],
+                         ids=["irregular", "obtuse", "icosphere", "grid"])
+def test_mass_equals_igl_massmatrix(kind, igl_kind, mesh):
+    igl = pytest.importorskip("igl")
+    V, F = mesh()
+    M = mass_matrix(V, F, kind=kind)
+    R = sp.csr_array(igl.massmatrix(V, F.astype(np.int64), getattr(igl, igl_kind)))
+    assert M.shape == R.shape
+    np.testing.assert_allclose(M.toarray(), R.toarray(), rtol=0, atol=1e-12 * R.diagonal().max())
+    np.testing.assert_allclose(M.diagonal(), R.diagonal(), rtol=1e-12)
+
+
+@mass_params
+@mesh_params
+def test_mass_is_diagonal_nonnegative_and_sums_to_the_area(kind, mesh):
+    V, F = MESHES[mesh]()
+    M = mass_matrix(V, F, kind=kind)
+    assert M.nnz == len(V) and (M.indices == np.arange(len(V))).all()
+    assert (M.diagonal() >= 0).all()
+    np.testing.assert_allclose(M.sum(), naive_areas(V, F).sum(), rtol=1e-13)
+    np.testing.assert_allclose(face_areas(V, F), naive_areas(V, F), rtol=1e-13)
+
+
+@mass_params
+@pytest.mark.parametrize("s", [1e-150, 1e-6, 3.0, 1e6, 1e150])
+def test_mass_scales_as_s_squared_at_any_scale(kind, s):
+    V, F = jitter(*icosphere(2))
+    M = mass_matrix(V, F, kind=kind).diagonal()
+    Ms = mass_matrix(V * s, F, kind=kind).diagonal()
+    np.testing.assert_allclose(Ms / s / s, M, rtol=1e-12)
+
+
+@mass_params
+def test_mass_invariant_under_translation_and_relabelling(kind):
+    V, F = irregular()
+    M = mass_matrix(V, F, kind=kind).diagonal()
+    np.testing.assert_allclose(mass_matrix(V + np.array([3.0, -2.0, 5.0]), F, kind=kind).diagonal(), M, rtol=1e-12)
+    perm = np.random.default_rng(5).permutation(len(V))
+    inv = np.argsort(perm)  # new vertex inv[i] is old vertex i
+    Mp = mass_matrix(V[perm], inv[F], kind=kind).diagonal()
+    np.testing.assert_allclose(Mp[inv], M, rtol=1e-15)
+
+
+def test_mass_unreferenced_vertex_and_degenerate_face_weigh_nothing():
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [9, 9, 9]])
+    F = np.array([[0, 1, 2], [0, 1, 3]])  # face 1 is collinear: zero area; vertex 4 is used by no face
+    for kind in MASS:
+        d = mass_matrix(V, F, kind=kind).diagonal()
+        assert d[3] == 0 and d[4] == 0
+        np.testing.assert_allclose(d.sum(), 0.5, rtol=1e-15)
+        np.testing.assert_allclose(vertex_areas(V, F, kind=kind), d, rtol=0)
+
+
+def test_mass_with_cotan_stiffness_integrates_the_dirichlet_energy():
+    # x' L x for the linear f = a.x on a flat mesh is |a|**2 times the area, and 1' M 1 is the area
+    V, F = irregular()
+    a = np.array([0.3, -1.2, 0.0])
+    f = V @ a
+    L = laplacian(V, F, weights="cotan")
+    M = mass_matrix(V, F)
+    np.testing.assert_allclose(f @ (L @ f), (a @ a) * M.sum(), rtol=1e-12)
+
+
+def test_mass_rejects_bad_input(single_triangle):
+    V, F = single_triangle
+    with pytest.raises(OptionError, match="kind"):
+        mass_matrix(V, F, kind="full")
+    with pytest.raises(MeshError, match="outside"):
+        mass_matrix(V, [[0, 1, 3]])
+    with pytest.raises(MeshError, match="NaN"):
+        mass_matrix(np.where(V == 1, np.nan, V), F)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from manifill.mesh.shapes import icosphere
-from manifill.solid.tets import tetrahedralize
+from manifill.solid.tetrahedralize import tetrahedralize
 
 CONNECTIVITIES = (6, 18, 26)
 SPACINGS = [(1.0, 1.0, 1.0), (1.0, 1.0, 2.5), (0.5, 1.0, 3.0)]

@@ -5,12 +5,12 @@ import functools
 import numpy as np
 import pytest
 
-from manifill import ManifillError, OptionError, SampleError
+from manifill import ManifillError, MeshError, OptionError, SampleError
 from manifill.mesh.shapes import icosphere
-from manifill.solid.reconstruct_volume import (digital_surface, reconstruct_volume, reconstruct_volume_mask,
-                                               reconstruct_volume_tets)
+from manifill.solid.boundary import boundary_voxels, digital_surface
+from manifill.solid.reconstruct_volume import reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
 from manifill.solid.tets import boundary_faces, tet_laplacian
-from manifill.solid.voxels import boundary_voxels, voxel_centres, voxel_laplacian
+from manifill.solid.voxels import voxel_centres, voxel_laplacian
 from solids import CONNECTIVITIES, SPACINGS, ball, needs_tetgen, one_line, tet_ball
 
 
@@ -34,7 +34,8 @@ def _solid(form, sampled, resolution=24):
     V, F = SPHERE
     idx = ALL_V if sampled == "all" else SOME_V
     method = "harmonic" if sampled == "all" else "gvf-harmonic"  # all vertices sampled: the surface is exact
-    return reconstruct_volume(V, F, idx, field(V[idx]), form=form, resolution=resolution, method=method)
+    grid = dict(resolution=resolution) if form == "voxels" else {}  # tets have no resolution
+    return reconstruct_volume(V, F, idx, field(V[idx]), form=form, method=method, **grid)
 
 
 def barycentric_closest(V, F, P):
@@ -185,25 +186,6 @@ def mask_ball(spacing=(1.0, 1.0, 1.0)):
 
 @pytest.mark.parametrize("spacing", SPACINGS)
 @pytest.mark.parametrize("c", CONNECTIVITIES)
-def test_digital_surface_of_a_ball(spacing, c):
-    mask = mask_ball(spacing)
-    origin = np.array([1.0, -2.0, 0.5])
-    voxels, P, E, normals = digital_surface(mask, spacing, origin, c)
-    np.testing.assert_array_equal(voxels, np.argwhere(boundary_voxels(mask, c)))
-    np.testing.assert_allclose(P, origin + voxels * np.asarray(spacing), rtol=0, atol=1e-12)
-    # edges: distinct pairs i < j of boundary voxels that touch
-    assert (E[:, 0] < E[:, 1]).all() and len(np.unique(E, axis=0)) == len(E)
-    assert np.abs(voxels[E[:, 0]] - voxels[E[:, 1]]).max() == 1
-    deg = np.bincount(E.ravel(), minlength=len(voxels))
-    assert deg.min() >= 1  # no surface voxel is isolated
-    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, rtol=1e-12)
-    centre = origin + (np.array(mask.shape) - 1) * np.asarray(spacing) / 2
-    outward = np.einsum("ij,ij->i", normals, P - centre) > 0
-    assert outward.mean() > 0.95  # measured: all of them
-
-
-@pytest.mark.parametrize("spacing", SPACINGS)
-@pytest.mark.parametrize("c", CONNECTIVITIES)
 def test_reconstruct_volume_mask(spacing, c):
     mask = mask_ball(spacing)
     on = np.argwhere(boundary_voxels(mask, c))[::7]
@@ -258,16 +240,102 @@ def test_reconstruct_volume_mask_bad_samples(idx, words):
 def test_reconstruct_volume_mask_bad_origin(origin):
     mask = mask_ball()
     on = np.argwhere(boundary_voxels(mask))[::9]
-    with pytest.raises(SampleError) as info:
+    with pytest.raises(MeshError) as info:  # the grid is the solid's geometry, not the samples'
         reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, origin=origin)
-    assert "origin" in one_line(info)
-    with pytest.raises(SampleError):
+    assert "origin" in one_line(info) and not isinstance(info.value, SampleError)
+    with pytest.raises(MeshError):
         digital_surface(mask, origin=origin)
+    with pytest.raises(MeshError) as info:
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, spacing=origin)
+    assert "spacing" in one_line(info)
 
 
 def test_reconstruct_volume_mask_bad_mask():
-    with pytest.raises(SampleError) as info:
+    with pytest.raises(MeshError) as info:
         reconstruct_volume_mask(np.zeros((5, 5, 5), dtype=bool), np.zeros((1, 3), dtype=int), [1.0])
     assert "no voxel" in one_line(info)
     with pytest.raises(OptionError):
         reconstruct_volume_mask(mask_ball(), np.zeros((1, 3), dtype=int), [1.0], connectivity=5)
+
+
+# ---------------------------------------------------------------------------
+# options are used or refused, never dropped or renamed
+# ---------------------------------------------------------------------------
+
+
+@needs_tetgen
+def test_multigrid_is_refused_for_tets():
+    from manifill.solid.estimates import reconstruct_volume_memory
+
+    V, F = SPHERE
+    for call in (lambda: reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), form="tets", fill_solver="multigrid"),
+                 lambda: reconstruct_volume_memory(V, F, form="tets", fill_solver="multigrid"),
+                 lambda: reconstruct_volume_tets(*tet_ball(2), [0], [1.0], fill_solver="multigrid")):
+        with pytest.raises(OptionError) as info:
+            call()
+        msg = one_line(info)
+        assert "multigrid is for voxels" in msg.replace("'", "") and "'amg'" in msg and "'direct'" in msg
+    # voxels take it, and auto is multigrid there
+    r = reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), resolution=12, fill_solver="multigrid")
+    assert r.report["fill"]["solver"] == "multigrid"
+    assert _solid("voxels", "some").report["fill"]["solver"] == "multigrid"
+
+
+@needs_tetgen
+def test_tet_fill_solver_is_the_one_asked_for():
+    # direct and amg solve the same system: the same fill to round-off, and auto is one of them
+    V, F = SPHERE
+    runs = {s: reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), form="tets", fill_solver=s)
+            for s in ("auto", "direct", "amg")}
+    np.testing.assert_allclose(runs["amg"].values, runs["direct"].values, rtol=0, atol=1e-7)
+    np.testing.assert_array_equal(runs["auto"].values, runs["direct"].values)  # few unknowns: auto factorises
+
+
+def test_mask_refuses_weights_it_cannot_use():
+    mask = mask_ball()
+    on = np.argwhere(boundary_voxels(mask))[::9]
+    for w in ("cotan", "intrinsic", "robust"):
+        with pytest.raises(OptionError) as info:
+            reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, weights=w)
+        assert "uniform" in one_line(info) and "digital surface" in one_line(info)
+    with pytest.raises(OptionError):
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, weights="heavy")
+    with pytest.raises(OptionError):
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, solver="fast")
+
+
+def test_mask_uses_the_surface_solver():
+    mask = mask_ball()
+    on = np.argwhere(boundary_voxels(mask))[::9]
+    vals = np.sin(0.4 * on[:, 0]) + 0.1 * on[:, 2]
+    base = reconstruct_volume_mask(mask, on, vals, weights="uniform")
+    direct = reconstruct_volume_mask(mask, on, vals, solver="direct")
+    it = reconstruct_volume_mask(mask, on, vals, solver="iterate")
+    assert direct.surface.report["harmonic"]["solver"] == "direct"
+    assert it.surface.report["harmonic"]["solver"] == "iterate"
+    np.testing.assert_allclose(it.surface.values, direct.surface.values, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(base.values[mask], direct.values[mask], rtol=0, atol=1e-9)
+
+
+def test_point_data_carries_the_boundary_and_sample_masks():
+    from manifill.results import BOUNDARY_MASK, SAMPLE_MASK
+
+    mask = mask_ball()
+    on = np.argwhere(boundary_voxels(mask))[::9]
+    r = reconstruct_volume_mask(mask, on, np.column_stack([on[:, 0] * 1.0, on[:, 1] * 1.0]))
+    data = r.point_data(["a", "b"])
+    assert list(data) == ["a", "b", BOUNDARY_MASK] and SAMPLE_MASK not in data  # the voxel files as they were
+    np.testing.assert_array_equal(data[BOUNDARY_MASK], boundary_voxels(mask))
+    np.testing.assert_array_equal(data["b"], r.values[..., 1], strict=True)
+    assert {tuple(v) for v in r.samples.tolist()} == {tuple(v) for v in on.tolist()}
+
+
+@pytest.mark.parametrize("form, option", [("tets", dict(resolution=64)), ("tets", dict(connectivity=26)),
+                                          ("tets", dict(allow_open=True)), ("voxels", dict(max_volume=0.01)),
+                                          ("voxels", dict(fill_weights="uniform"))])
+def test_options_of_the_other_form_are_refused(form, option):
+    V, F = SPHERE
+    with pytest.raises(OptionError) as info:
+        reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), form=form, **option)
+    name = next(iter(option))
+    assert one_line(info).startswith(f"{name}=") and "does nothing with form" in one_line(info)

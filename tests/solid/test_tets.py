@@ -4,7 +4,6 @@ import doctest
 import functools
 import importlib.util
 import itertools
-import sys
 from fractions import Fraction
 
 import numpy as np
@@ -17,7 +16,8 @@ from scipy.spatial import Delaunay
 import manifill.solid.tets
 from manifill import HarmonicSolver, MeshError, OptionError
 from manifill.mesh.shapes import icosphere
-from manifill.solid.tets import boundary_faces, tet_laplacian, tet_volumes, tetrahedralize
+from manifill.solid.tetrahedralize import tetrahedralize
+from manifill.solid.tets import boundary_faces, tet_laplacian, tet_volumes
 from manifill.validate import as_tets
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
@@ -449,91 +449,6 @@ def test_shared_face_is_not_on_the_boundary():
 
 
 # ---------------------------------------------------------------------------
-# tetgen
-# ---------------------------------------------------------------------------
-
-
-def cyclic(F):
-    """Oriented triangles as a set, each rotated to start at its smallest vertex."""
-    out = set()
-    for f in np.asarray(F).tolist():
-        k = f.index(min(f))
-        out.add(tuple(f[k:] + f[:k]))
-    return out
-
-
-@needs_tetgen
-@pytest.mark.parametrize("kwargs", [{}, {"quality": False}, {"max_volume": 0.002}])
-def test_tetrahedralize_ball_keeps_the_surface(kwargs):
-    V, F = icosphere(3)
-    TV, TT = tetrahedralize(V, F, **kwargs)
-    assert TV.dtype == np.float64 and TT.dtype == np.int64 and TT.shape[1] == 4
-    np.testing.assert_array_equal(TV[:len(V)], V)
-    vol = volumes(TV, TT)
-    assert (vol > 0).all()
-    assert vol.sum() == pytest.approx(enclosed_volume(V, F), rel=1e-12)  # exactly the polyhedron
-    assert abs(vol.sum() / (4 / 3 * np.pi) - 1) < 0.015
-    assert cyclic(boundary_faces(TT)) == cyclic(F)  # the input triangles, outward like icosphere's
-    if kwargs.get("quality") is False:
-        assert len(TV) == len(V)
-
-
-@needs_tetgen
-def test_tetrahedralize_max_volume_refines_the_inside():
-    V, F = icosphere(3)
-    _, coarse = tetrahedralize(V, F)
-    TV, TT = tetrahedralize(V, F, max_volume=0.001)
-    assert len(TT) > 2 * len(coarse)
-    inside = ~np.isin(TT, np.arange(len(V))).any(axis=1)
-    assert np.median(volumes(TV, TT)[inside]) <= 0.001
-
-
-@needs_tetgen
-def test_tetrahedralize_is_in_the_units_of_V():
-    V, F = icosphere(2)
-    s = 2.0**-10  # exact in floating point: tetgen sees the same problem, scaled
-    TV, TT = tetrahedralize(V * s, F, max_volume=0.002 * s**3)
-    TV1, TT1 = tetrahedralize(V, F, max_volume=0.002)
-    assert len(TT1) > 2 * len(tetrahedralize(V, F)[1])
-    np.testing.assert_array_equal(TT, TT1)
-    np.testing.assert_array_equal(TV, TV1 * s)
-
-
-@needs_tetgen
-def test_tetrahedralize_open_surface():
-    V, F = icosphere(2)
-    with pytest.raises(MeshError) as info:
-        tetrahedralize(V, F[1:])
-    msg = one_line(info)
-    assert "3 boundary edges" in msg and "close the holes" in msg
-
-
-@needs_tetgen
-def test_tetrahedralize_self_intersecting_surface(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    V, F = icosphere(2)
-    V2, F2 = np.vstack([V, V + [0.5, 0.0, 0.0]]), np.vstack([F, F + len(V)])  # two overlapping spheres
-    with pytest.raises(MeshError) as info:
-        tetrahedralize(V2, F2)
-    assert "self-intersection" in one_line(info)
-    assert list(tmp_path.iterdir()) == []  # tetgen's leftover files stay in its own temporary directory
-
-
-@needs_tetgen
-@pytest.mark.parametrize("bad", [0, -1.0, np.inf, float("nan"), "big"])
-def test_tetrahedralize_bad_max_volume(bad):
-    with pytest.raises(OptionError) as info:
-        tetrahedralize(*icosphere(1), max_volume=bad)
-    assert "max_volume" in one_line(info)
-
-
-def test_tetrahedralize_without_tetgen(monkeypatch):
-    monkeypatch.setitem(sys.modules, "tetgen", None)
-    with pytest.raises(ImportError, match=r"pip install 'manifill\[volume\]'"):
-        tetrahedralize(*icosphere(1))
-
-
-# ---------------------------------------------------------------------------
 # bad input
 # ---------------------------------------------------------------------------
 
@@ -595,8 +510,6 @@ def test_bad_weights():
 
 def test_doctests():
     flags = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
-    if not HAVE_TETGEN:
-        pytest.skip("the tetrahedralize example needs tetgen")
     result = doctest.testmod(manifill.solid.tets, optionflags=flags)
     assert result.attempted > 0 and result.failed == 0
 
@@ -604,6 +517,8 @@ def test_doctests():
 def test_surface_volume_is_the_volume_of_its_tets():
     from manifill.solid.tets import surface_volume
 
+    if not HAVE_TETGEN:
+        pytest.skip("needs tetgen")
     V, F = icosphere(2)
     TV, TT = tetrahedralize(V, F, max_volume=0.01)
     vol = tet_volumes(TV, TT).sum()  # the surface is kept, so the tets fill exactly the polyhedron

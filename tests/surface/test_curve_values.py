@@ -386,3 +386,48 @@ def test_hermite_reproduces_a_quadratic_between_equally_spaced_samples_on_a_line
     _, xl = curve_values(V, edges, idx[order], (c0 + c1 * s[at])[order], method="hermite", curves=curves,
                          ends=ends, normals=normals)
     np.testing.assert_allclose(xl[label], c0 + c1 * s, rtol=0, atol=1e-9 * (abs(c0) + abs(c1) * s.max()))
+
+
+# ---------------------------------------------------------------------------
+# Step 4 on a partition: values_on_curves and its CurveValues
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["linear", "hermite", "gvf"])
+@pytest.mark.parametrize("name", ["icosphere2", "irregular", "torus"])
+def test_values_on_curves_is_curve_values_on_the_partition(name, method):
+    from manifill.surface.curve_values import CurveValues, values_on_curves
+    from manifill.surface.surface import Surface
+
+    V, F, idx, part, rng = network(name, "delaunay", "length", seed=5, k=12)
+    s = Surface.from_mesh(V, F)
+    vals = np.round(4 * rng.uniform(-1.0, 1.0, size=(idx.size, 2))) / 4
+    checks = [check_gradual(s.G_hops, idx, vals[:, j]) for j in range(2)]
+    cv = values_on_curves(s, part, idx, vals, method=method, checks=checks)
+    assert isinstance(cv, CurveValues) and cv.method == method
+    b, bc = cv
+    assert b is cv.idx and bc is cv.vals and bc.shape == (b.size, 2)
+    np.testing.assert_array_equal(b, np.flatnonzero(part.on_curve))
+    np.testing.assert_array_equal(bc[np.searchsorted(b, idx)], vals)
+    for j in range(2):
+        kw = (dict(levels=checks[j].levels, level=checks[j].level) if method == "gvf"
+              else dict(F=F, curves=part.curves, ends=part.ends))
+        bj, xj = curve_values(V, part.curve_edges(), idx, vals[:, j], method=method, **kw)
+        np.testing.assert_array_equal(bj, b)
+        np.testing.assert_allclose(bc[:, j], xj, rtol=0, atol=1e-12)
+
+
+def test_values_on_curves_takes_normals_from_a_surface_without_triangles():
+    from manifill.surface.curve_values import values_on_curves, vertex_normals
+    from manifill.surface.surface import Surface
+
+    V, F, idx, part, rng = network("icosphere2", "delaunay", "length", seed=6, k=14)
+    mesh_surface = Surface.from_mesh(V, F)
+    vals = rng.uniform(-1.0, 1.0, size=(idx.size, 1))
+    bare = Surface(mesh_surface.V, mesh_surface.G_hops, mesh_surface.G, mesh_surface.laplacian,
+                   normals=vertex_normals(V, F))
+    a = values_on_curves(mesh_surface, part, idx, vals)
+    b = values_on_curves(bare, part, idx, vals)
+    np.testing.assert_allclose(a.vals, b.vals, rtol=0, atol=1e-12)
+    with pytest.raises(OptionError, match="curve_values"):
+        values_on_curves(mesh_surface, part, idx, vals, method="cubic")

@@ -19,7 +19,7 @@ from scipy.sparse import csgraph
 from conftest import annulus, grid, icosphere, irregular, lattice, torus, two_components
 from manifill.errors import OptionError, SampleError
 from manifill.mesh.graph import mesh_graph, offset_distances, trace
-from manifill.surface.gradual import check_gradual, gvf, lipschitz_constant, lipschitz_extension
+from manifill.surface.gradual import check_gradual, gvf, lipschitz_constant, lipschitz_extension, violation_message
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow])
@@ -477,7 +477,7 @@ def test_lipschitz_extensions(kind, distance, seed, k, factor):
     np.testing.assert_allclose(hi, W[reach], rtol=0, atol=eps)
     np.testing.assert_allclose(lo, M[reach], rtol=0, atol=eps)
     # every K-Lipschitz extension lies between McShane's and Whitney's: a few built from cones
-    for trial in range(4):
+    for _trial in range(4):
         tips = rng.choice(G.shape[0], size=3)
         tips = tips[reach[tips]]
         dip = rng.uniform(0.0, 2.0, size=tips.size) * scale
@@ -511,3 +511,52 @@ def test_lipschitz_extension_k_zero_with_samples_in_two_components():
     x = lipschitz_extension(G, np.array([0, 20]), np.array([0.0, 5.0]), K=0.0)
     np.testing.assert_array_equal(x[:16], 0.0)
     np.testing.assert_array_equal(x[16:], 5.0)
+
+
+# ---------------------------------------------------------------------------
+# the check's own views: worst violations first, the report summary
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_worst_orders_violations_by_slack(seed):
+    V, F = mesh("torus")
+    G = mesh_graph(V, F, distance="hops")
+    rng = np.random.default_rng(seed)
+    idx = random_samples(rng, G.shape[0], 25)
+    check = check_gradual(G, idx, rng.uniform(0, 10, idx.size), levels=40)
+    assert len(check.violations) > 3, "precondition: several violations"
+    rows = check.worst()
+    slack = rows[:, 2] - rows[:, 3]
+    assert (np.diff(slack) >= 0).all() and slack[0] < 0, "most negative slack first"
+    # a permutation of the violations, exactly the rows numpy's argsort of the slack gives
+    assert sorted(map(tuple, rows)) == sorted(map(tuple, check.violations))
+    order = np.argsort(check.violations[:, 2] - check.violations[:, 3])
+    assert rows.tobytes() == check.violations[order].tobytes()
+    assert check.worst(2).tobytes() == rows[:2].tobytes()
+    assert check.worst(0).shape == (0, 4) and check.worst(10**6).shape == rows.shape
+
+
+def test_worst_of_a_check_that_holds_is_empty_and_summary_matches():
+    V, F = mesh("grid")
+    G = mesh_graph(V, F, distance="hops")
+    check = check_gradual(G, np.array([0, 4, 24]), np.array([0.0, 2.0, 3.0]))
+    assert check.holds and check.worst().shape == (0, 4)
+    assert check.summary() == {"holds": True, "lipschitz_hops": 0.75, "step": 0.75, "levels": 5,
+                               "violations": 0, "level_error": 0.25}  # 2.0 sits on 2.25
+    bad = check_gradual(G, np.array([0, 1]), np.array([0.0, 3.0]), levels=4)
+    assert bad.summary()["violations"] == 1 and bad.summary()["holds"] is False
+    assert "vertices 1 and 0 are 1 apart but 3 levels apart" in violation_message(bad)
+
+
+def test_check_gradual_reads_the_distance_from_the_graph_by_default():
+    V, F = mesh("irregular")
+    idx, vals = np.array([0, 10, 30]), np.array([0.0, 1.3, 2.0])
+    hops, length = mesh_graph(V, F, distance="hops"), mesh_graph(V, F, distance="length")
+    assert check_gradual(hops, idx, vals).distance == "hops"
+    assert check_gradual(length, idx, vals).distance == "length"
+    assert check_gradual(length, idx, vals, distance="hops").distance == "hops"
+    a, b = check_gradual(hops, idx, vals), check_gradual(hops, idx, vals, distance="hops")
+    assert a.levels.tobytes() == b.levels.tobytes() and a.level.tobytes() == b.level.tobytes()
+    with pytest.raises(OptionError, match="distance"):
+        check_gradual(hops, idx, vals, distance="geodesic")

@@ -19,11 +19,12 @@ from conftest import (
     relabel,
     two_components,
 )
-from manifill import HarmonicSolver, ManifillError, SampleError, SolveError, harmonic, laplacian
+from manifill import HarmonicSolver, ManifillError, MeshError, SampleError, SolveError, harmonic, laplacian
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 SOLVERS = ("direct", "amg", "iterate")
-hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow])
+hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
+                     suppress_health_check=[HealthCheck.too_slow])
 
 
 def random_problem(V, seed, k=None, p=None):
@@ -116,7 +117,8 @@ def test_max_principle_cotan_on_non_obtuse_mesh(mesh, seed):
     assert_max_principle(harmonic(V, F, b, bc, weights="cotan"), bc)
 
 
-@pytest.mark.parametrize("mesh", [obtuse, irregular, lambda: lattice(8, squash=0.15)], ids=["obtuse", "irregular", "flatter"])
+@pytest.mark.parametrize("mesh", [obtuse, irregular, lambda: lattice(8, squash=0.15)],
+                         ids=["obtuse", "irregular", "flatter"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_max_principle_intrinsic_on_obtuse_mesh(mesh, seed):
     V, F = mesh()
@@ -170,7 +172,8 @@ def test_intrinsic_exact_and_max_principle_any_fixed_set(problem):
 
 
 @pytest.mark.parametrize(
-    "mesh", [irregular, lambda: irregular(7, seed=1), obtuse, lambda: grid(6)], ids=["irregular", "irregular1", "obtuse", "grid"]
+    "mesh", [irregular, lambda: irregular(7, seed=1), obtuse, lambda: grid(6)],
+    ids=["irregular", "irregular1", "obtuse", "grid"],
 )
 def test_cotan_reproduces_linear_functions(mesh):
     V, F = mesh()
@@ -419,5 +422,9 @@ def test_from_laplacian_accepts_integer_matrices_and_refuses_nan():
         np.testing.assert_allclose(x, np.arange(6.0), atol=1e-8)
     Ln = sp.csr_array(L, dtype=float)
     Ln.data[0] = np.nan
-    with pytest.raises(SampleError, match="NaN"):
+    with pytest.raises(MeshError, match="NaN"):
         HarmonicSolver.from_laplacian(Ln, [0, 5])
+    with pytest.raises(MeshError, match="square"):
+        HarmonicSolver.from_laplacian(sp.csr_array(np.ones((3, 4))), [0])
+    with pytest.raises(MeshError, match="sparse matrix"):
+        HarmonicSolver.from_laplacian("abc", [0])

@@ -279,3 +279,36 @@ def test_unknown_method_raises():
     V, F, _ = mesh("icosphere2")
     with pytest.raises(OptionError):
         partition(V, F, np.array([0, 1]), mesh_graph(V, F), method="voronoi")
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("name", sorted(MESHES))
+def test_steepest_curve_bounds_the_hop_lipschitz_constant_from_below(name, method):
+    from scipy.sparse import csgraph
+
+    V, F, _ = mesh(name)
+    rng = np.random.default_rng(len(name))
+    idx = np.sort(rng.choice(len(V), 12, replace=False))
+    X = np.column_stack([V[idx, 0], rng.uniform(-1, 1, 12), np.full(12, 2.0)])
+    part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method=method)
+    starts = part.steepest(idx, X)
+    D = csgraph.shortest_path(mesh_graph(V, F, distance="hops"), unweighted=True, indices=idx)[:, idx]
+    for j, (K0, (a, b)) in enumerate(starts):
+        # the ratio of a pair of samples over the hop length of a curve joining them ...
+        c = [i for i, e in enumerate(part.ends) if {int(e[0]), int(e[1])} == {int(idx[a]), int(idx[b])}]
+        assert c and K0 == pytest.approx(abs(X[a, j] - X[b, j]) / max(len(part.curves[c[0]]) - 1, 1), rel=1e-12)
+        # ... at most the true Lipschitz constant in hops, and the steepest such ratio
+        off = ~np.eye(12, dtype=bool)
+        K = (np.abs(X[:, None, j] - X[None, :, j])[off] / D[off]).max()
+        assert K0 <= K * (1 + 1e-12)
+        hops = np.array([len(cv) - 1 for cv in part.curves])
+        pos = np.searchsorted(idx, part.ends)
+        ratios = np.abs(X[pos[:, 0], j] - X[pos[:, 1], j])[hops > 0] / hops[hops > 0]
+        assert K0 == ratios.max()
+    assert starts[2][0] == 0.0  # a constant field
+
+
+def test_steepest_without_curves():
+    V, F, _ = mesh("grid")
+    part = partition(V, F, np.array([3]), mesh_graph(V, F), method="delaunay")
+    assert part.curves == [] and part.steepest(np.array([3]), np.ones((1, 2))) == [None, None]

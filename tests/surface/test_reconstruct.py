@@ -344,3 +344,84 @@ def test_hermite_on_sparse_samples_stays_in_range_and_beats_linear():
     lin = reconstruct(V, F, idx, f[idx], curve_values="linear")
     assert herm.report["overshoot"] <= 1e-12
     assert np.abs(herm.values - f).max() <= np.abs(lin.values - f).max()
+
+
+# ---------------------------------------------------------------------------
+# reconstruct is the composition of the public steps
+# ---------------------------------------------------------------------------
+
+
+def compose(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan", distance="length",
+            levels=None, curve_values="hermite", solver="auto", init="gvf", seed=0):
+    """Steps 1-6 by hand, from the public functions only, in the order the paper's pipeline runs them."""
+    from manifill.surface.curve_values import values_on_curves
+    from manifill.surface.fill import fill_patches, gvf_fill, start_values
+    from manifill.surface.gradual import check_gradual
+    from manifill.surface.partition import partition as draw
+    from manifill.surface.surface import Surface
+    from manifill.validate import as_samples
+
+    s = Surface.from_mesh(V, F, distance=distance, allow_degenerate=weights in ("uniform", "robust"))
+    idx, X, squeeze = as_samples(idx, vals, s.n)
+    part = draw(s.V, s.F, idx, s.G, method=partition) if method == "gvf-harmonic" else None
+    starts = part.steepest(idx, X) if part is not None else [None] * X.shape[1]
+    checks = [check_gradual(s.G_hops, idx, X[:, j], levels=levels, start=starts[j]) for j in range(X.shape[1])]
+    if method == "gvf":
+        out = gvf_fill(s, idx, X, checks)
+    else:
+        b, bc = values_on_curves(s, part, idx, X, method=curve_values, checks=checks) if part else (idx, X)
+        out, _ = fill_patches(s, b, bc, weights=weights, solver=solver,
+                              x0=lambda: start_values(init, s, idx, X, checks=checks, seed=seed))
+    return (out[:, 0] if squeeze else out), part, checks
+
+
+COMPOSITIONS = [
+    {},
+    {"partition": "cycle"},
+    {"partition": "tree", "curve_values": "linear"},
+    {"curve_values": "gvf", "round": True},
+    {"method": "harmonic", "weights": "uniform"},
+    {"method": "gvf", "round": True},
+    {"distance": "hops", "weights": "intrinsic"},
+    {"solver": "iterate", "init": "random", "seed": 3},
+    {"solver": "iterate", "init": "gvf"},
+    {"solver": "amg", "levels": 9},
+]
+
+
+@pytest.mark.parametrize("columns", [1, 2])
+@pytest.mark.parametrize("options", COMPOSITIONS, ids=lambda o: ",".join(f"{k}={v}" for k, v in o.items()) or "default")
+def test_reconstruct_equals_the_public_steps_composed_by_hand(options, columns):
+    options = dict(options)
+    rounded = options.pop("round", False)
+    V, F = jittered_icosphere(3, seed=2)
+    idx = np.random.default_rng(7).choice(len(V), 40, replace=False)
+    vals = np.column_stack([np.sin(2 * V[idx, 0]) + V[idx, 2], V[idx, 1] ** 2])[:, :columns]
+    vals = np.round(vals * 4) / 4 if rounded else vals
+    vals = vals[:, 0] if columns == 1 else vals
+    r = reconstruct(V, F, idx, vals, **options)
+    x, part, checks = compose(V, F, idx, vals, **options)
+    assert r.values.shape == x.shape and r.values.tobytes() == x.tobytes()
+    assert r.report["check"] == [c.summary() for c in checks]
+    assert all(a.tobytes() == c.levels.tobytes() for a, c in zip(r.levels, checks))
+    if part is not None:
+        assert np.array_equal(r.on_curve, part.on_curve) and np.array_equal(r.components, part.labels)
+        assert r.report["partition"] == part.report
+    else:
+        assert r.on_curve.sum() == len(idx) and not r.components.any()
+
+
+def test_reconstruct_surface_keeps_the_field_axis_and_adds_its_timings():
+    from manifill.surface.reconstruct import reconstruct_surface
+    from manifill.surface.surface import Surface
+
+    V, F = icosphere(2)
+    idx = np.arange(0, len(V), 11)
+    vals = V[idx, :1] + 1.0
+    seconds = {"validate": 1.0, "graph": 2.0}
+    r = reconstruct_surface(Surface.from_mesh(V, F), idx, vals, seconds=seconds)
+    assert r.values.shape == (len(V), 1) and r.report["seconds"] is seconds
+    assert {"partition", "check", "curve_values", "harmonic"} <= set(seconds) and seconds["total"] > 3.0
+    assert r.values[:, 0].tobytes() == reconstruct(V, F, idx, vals[:, 0]).values.tobytes()
+    with pytest.raises(OptionError, match="curve_values"):
+        reconstruct_surface(Surface.from_mesh(V, F), idx, vals, curve_values="cubic")

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from manifill.errors import ReadError, SampleError
-from manifill.io.registry import read_samples
+from manifill.io import read_samples
 from manifill.surface.samples import Samples, snap_to_vertices
 from manifill.mesh.shapes import grid
 

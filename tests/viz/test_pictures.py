@@ -171,7 +171,10 @@ def chromium():
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-@pytest.mark.skipif(chromium() is None, reason="needs Debian's chromium (.ci/run installs it: apt-get install chromium)")
+NEEDS_CHROMIUM = "needs Debian's chromium (.ci/run installs it: apt-get install chromium)"
+
+
+@pytest.mark.skipif(chromium() is None, reason=NEEDS_CHROMIUM)
 def test_viewer_draws_in_headless_chromium(tmp_path):
     V, F = icosphere(4)
     idx = np.arange(0, len(V), 97)
@@ -196,7 +199,7 @@ def test_viewer_draws_in_headless_chromium(tmp_path):
 
 
 def test_cli_render_html_subdivide_quiet(tmp_path, capsys):
-    from manifill.io.registry import write_mesh
+    from manifill.io import write_mesh
 
     V, F = icosphere(2)
     write_mesh(tmp_path / "m.ply", V, F)
@@ -220,7 +223,7 @@ def test_cli_render_html_subdivide_quiet(tmp_path, capsys):
 
 @pytest.mark.parametrize("flag, name", [("--render", "x.jpg"), ("--html", "x.htm"), ("--render", "no/x.png")])
 def test_cli_bad_picture_names_exit_2_before_work(tmp_path, capsys, flag, name):
-    from manifill.io.registry import write_mesh
+    from manifill.io import write_mesh
 
     V, F = icosphere(1)
     write_mesh(tmp_path / "m.ply", V, F)
@@ -245,7 +248,7 @@ def test_progress_is_told_every_step():
     assert steps[-2:] == ["voxelize", "fill"] and steps[0] == "graph"
 
 
-@pytest.mark.skipif(chromium() is None, reason="needs Debian's chromium (.ci/run installs it: apt-get install chromium)")
+@pytest.mark.skipif(chromium() is None, reason=NEEDS_CHROMIUM)
 def test_viewer_hover_reads_the_value_under_the_pointer(tmp_path):
     # the page's own picking, run in Chromium: at the centre of the canvas the unit sphere shows the point
     # R^T e_z of its initial rotation (yaw 0.6, pitch 0.4), where the field z is cos(0.4) cos(0.6)

@@ -2,8 +2,6 @@
 
 import time
 
-import numpy as np
-
 from .common import levels, load
 from .options import DISTANCES, sample_args
 
@@ -50,7 +48,7 @@ def run(args):
         else:
             print(f"  gradual variation condition: FAILS for {len(c.violations)} samples "
                   f"(vertex p, worst partner q, distance, levels apart):")
-            worst = c.violations[np.argsort(c.violations[:, 2] - c.violations[:, 3])]
+            worst = c.worst()
             for p, q, d, k in worst[:10]:
                 print(f"    {int(p):>8} {int(q):>8} {d:>10.4g} {int(k):>6}")
             if len(worst) > 10:

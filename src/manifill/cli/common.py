@@ -3,8 +3,10 @@
 All outputs of one command (``-o``, ``--render``, ``--html``) are checked before
 anything is read or computed: a known extension, an existing and writable folder,
 no output equal to an input or to another output. Results are written with
-manifill's mask arrays under their fixed names (:data:`manifill.io.registry.SAMPLE_MASK`,
-...), and a line says where a format hides the fields from a common reader.
+manifill's mask arrays under their fixed names (:data:`manifill.io.SAMPLE_MASK`,
+...), and a line says where a format hides the fields from a common reader. No numerics
+here: masks come from the results (:meth:`manifill.results.Result.masks`), value ranges
+from :func:`manifill.report.value_ranges`.
 """
 
 import os
@@ -12,12 +14,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import SampleError, WriteError
 
 __all__ = ["load", "check_outputs", "write_surface", "levels", "step_bar", "print_time", "pictures", "chosen_field",
-           "surface_outputs", "check_names", "masks", "print_ranges", "err"]
+           "surface_outputs", "check_names", "print_ranges", "err", "SURFACE_STEPS"]
 
 
 def load(args):
@@ -28,10 +28,9 @@ def load(args):
     V, F : numpy arrays
     S : manifill.surface.samples.Samples
     """
-    from ..io.registry import read_mesh_file
-    from ..io.samples import read_samples
+    from ..io import read_mesh_file, read_samples
     from ..surface.samples import Samples
-    from ..mesh.topology import clean_mesh
+    from ..mesh.clean import clean_mesh
 
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
@@ -121,11 +120,11 @@ def check_outputs(outputs, inputs):
     return result
 
 
-def write_surface(out, V, F, fields, masks):
-    """Write fields plus manifill's masks to a mesh file, saying what the format renamed or hides."""
-    from ..io.registry import format_note, write_mesh
+def write_surface(out, V, F, point_data):
+    """Write named fields (and manifill's masks) to a mesh file, saying what the format renamed or hides."""
+    from ..io import format_note, write_mesh
 
-    written = write_mesh(out, V, F, {**fields, **masks})
+    written = write_mesh(out, V, F, point_data)
     renamed = {a: b for a, b in written.items() if a != b}
     if renamed:
         print("note: fields renamed for the format: " + ", ".join(f"{a!r} -> {b!r}" for a, b in renamed.items()))
@@ -135,22 +134,36 @@ def write_surface(out, V, F, fields, masks):
 
 
 def levels(text):
-    """``--levels``: a count, or comma-separated explicit levels."""
+    """``--levels``: a count, or comma-separated explicit levels (a list of floats)."""
     if text is None:
         return None
     try:
         if "," in text:
-            return np.array([float(t) for t in text.split(",") if t.strip()])
+            return [float(t) for t in text.split(",") if t.strip()]
         return int(text)
     except ValueError:
         raise SampleError(f"--levels {text!r} is neither a count nor a comma-separated list of numbers") from None
 
 
-def step_bar(args, total):
-    """The progress bar of a command (nothing with --quiet)."""
+#: The steps each surface method runs, in order, under the names the library gives ``progress``
+#: (:func:`manifill.surface.reconstruct.reconstruct_surface`; :func:`manifill.surface.reconstruct.reconstruct`
+#: runs ``graph`` first).
+SURFACE_STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill"),
+                 "harmonic": ("check", "harmonic fill"), "gvf": ("check", "gvf")}
+
+
+def step_bar(args, steps):
+    """The progress bar of a command over the ``steps`` it runs (nothing with --quiet).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    steps : sequence of str
+        The names of the steps the run will tell the bar, in order: the bar's total.
+    """
     from ..progress import StepBar
 
-    return StepBar(total, enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
+    return StepBar(len(steps), enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
 
 
 def print_time(args, seconds):
@@ -198,8 +211,7 @@ def err(msg):
 
 def surface_outputs(args, pictures=True):
     """-o (and --render/--html) of a surface command, checked before any work."""
-    from ..io.registry import MESH_FORMATS
-    from ..io.samples import VALUE_FORMATS
+    from ..io import MESH_FORMATS, VALUE_FORMATS
 
     meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
     outs = [("-o", args.output, meshes + VALUE_FORMATS)]
@@ -211,25 +223,17 @@ def surface_outputs(args, pictures=True):
 
 def check_names(args, S, out):
     """The field names against the output's format and manifill's masks, and --field, before the work."""
-    from ..io.registry import check_field_names
+    from ..io import check_field_names
 
     check_field_names(S.names, out)
     chosen_field(args, S.names)
 
 
-def masks(n, idx, **extra):
-    """manifill's mask arrays of a surface result, under their fixed names."""
-    from ..io.registry import SAMPLE_MASK
-
-    sample = np.zeros(n, dtype=bool)
-    sample[idx] = True
-    return {SAMPLE_MASK: sample, **extra}
-
-
 def print_ranges(X, S, out):
     """Each field's range beside the samples' (overshoot shows), and the output path."""
-    lo, hi = np.nanmin(X, axis=0), np.nanmax(X, axis=0)
+    from ..report import value_ranges
+
+    (lo, hi), (slo, shi) = value_ranges(X), value_ranges(S.vals)
     for j, name in enumerate(S.names):
-        print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{S.vals[:, j].min():.6g}, "
-              f"{S.vals[:, j].max():.6g}])")
+        print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{slo[j]:.6g}, {shi[j]:.6g}])")
     print(f"wrote {out}")

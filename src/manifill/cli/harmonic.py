@@ -2,8 +2,9 @@
 
 import time
 
+from ..results import SAMPLE_MASK, sample_mask
 from ..surface.harmonic import HarmonicSolver
-from .common import check_names, load, masks, pictures, print_ranges, surface_outputs, write_surface
+from .common import check_names, load, pictures, print_ranges, surface_outputs, write_surface
 from .options import fill_args, output_args, picture_args, sample_args
 
 __all__ = ["add_parser", "run"]
@@ -23,7 +24,7 @@ def add_parser(sub):
 
 def run(args):
     """``manifill harmonic MESH SAMPLES -o OUT``."""
-    from ..io.samples import VALUE_FORMATS, write_values
+    from ..io import VALUE_FORMATS, write_values
 
     out = surface_outputs(args)
     ext = out.suffix.lower()
@@ -36,7 +37,8 @@ def run(args):
     if ext in VALUE_FORMATS:
         write_values(out, X, S.names)
     else:
-        write_surface(out, V, F, {name: X[:, j] for j, name in enumerate(S.names)}, masks(len(V), S.idx))
+        fields = {name: X[:, j] for j, name in enumerate(S.names)}
+        write_surface(out, V, F, {**fields, SAMPLE_MASK: sample_mask(len(V), S.idx)})
     rep = solver.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})"
           + (f", {S.merged} merged" if S.merged else ""))

@@ -20,7 +20,7 @@ def add_parser(sub):
 
 def run(args):
     """``manifill info MESH``."""
-    from ..io.registry import read_mesh
+    from ..io import read_mesh
     from ..mesh.topology import mesh_info
 
     V, F = read_mesh(args.mesh)

@@ -1,7 +1,7 @@
 """``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6)."""
 
-from .common import (check_names, levels, load, masks, pictures, print_ranges, print_time, step_bar, surface_outputs,
-                     write_surface)
+from .common import (SURFACE_STEPS, check_names, levels, load, pictures, print_ranges, print_time, step_bar,
+                     surface_outputs, write_surface)
 from .options import fill_args, output_args, picture_args, pipeline_args, sample_args
 
 __all__ = ["add_parser", "run"]
@@ -26,9 +26,8 @@ def add_parser(sub):
 
 def run(args):
     """``manifill reconstruct MESH SAMPLES -o OUT``."""
-    from ..io.registry import CURVE_MASK, PATCH_LABEL
+    from ..io import VALUE_FORMATS, write_values
     from ..surface.reconstruct import reconstruct
-    from ..io.samples import VALUE_FORMATS, write_values
 
     out = surface_outputs(args)
     V, F, S = load(args)
@@ -37,14 +36,14 @@ def run(args):
         from ..mesh.subdivide import check_subdivide
 
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
-    bar = step_bar(args, 5)
+    bar = step_bar(args, ("graph",) + SURFACE_STEPS[args.method])
     try:
         r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
                         distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
                         solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates, progress=bar)
     finally:
         bar.close()
-    X = r.values if r.values.ndim == 2 else r.values[:, None]
+    X = r.fields()
     if args.subdivide:
         from ..mesh.subdivide import subdivide
 
@@ -52,14 +51,13 @@ def run(args):
         if out.suffix.lower() in VALUE_FORMATS:
             write_values(out, X2, S.names)
         else:
-            write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)}, {})
+            write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
         print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
               f"the masks are not written)")
     elif out.suffix.lower() in VALUE_FORMATS:
         write_values(out, X, S.names)
     else:
-        fields = {name: X[:, j] for j, name in enumerate(S.names)}
-        write_surface(out, V, F, fields, masks(len(V), S.idx, **{CURVE_MASK: r.on_curve, PATCH_LABEL: r.components}))
+        write_surface(out, V, F, r.point_data(S.names))
     rep = r.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
     if S.snap_distance is not None:

@@ -2,8 +2,6 @@
 
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import SampleError
 from .options import SOLVERS, WEIGHTS, output_args, pipeline_args
 
@@ -28,7 +26,8 @@ def add_parser(sub):
     s.add_argument("--connectivity", type=int, choices=(6, 18, 26), default=6, help="voxel neighbours (default: 6)")
     s.add_argument("--max-volume", type=float, default=None, help="largest tetrahedron volume (--form tets)")
     s.add_argument("--fill-solver", choices=("auto", "multigrid", "amg", "direct"), default="auto",
-                   help="solver of the inside (default: auto = multigrid for voxels, AMG for tets)")
+                   help="solver of the inside: multigrid (voxels only), amg or direct (default: auto = multigrid "
+                        "for voxels; for tets direct up to a size, then amg)")
     s.add_argument("--fill-weights", choices=("cotan", "uniform"), default="cotan",
                    help="tetrahedral weights (default: cotan)")
     s.add_argument("--allow-open", action="store_true", help="voxelise an open surface by winding numbers")
@@ -38,7 +37,9 @@ def add_parser(sub):
     s.add_argument("--duplicates", choices=("error", "mean"), default="error",
                    help="two samples on one vertex with different values: error (default) or average")
     s.add_argument("--max-snap", type=float, default=None, help="largest accepted snap distance of a position")
-    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="surface Laplacian weights (default: cotan)")
+    s.add_argument("--weights", choices=WEIGHTS, default=None,
+                   help="surface Laplacian weights (default: cotan; uniform on a voxel mask, whose digital surface "
+                        "has no triangles)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="surface linear solver (default: auto)")
     pipeline_args(s, method_help="surface method (default: gvf-harmonic)")
     s.add_argument("--render", default=None, metavar="OUT.png",
@@ -62,9 +63,9 @@ def _triple(text, what):
 
 def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
-    from .common import check_outputs, levels, step_bar
+    from .common import SURFACE_STEPS, check_outputs, levels, step_bar
     from ..errors import ReadError, WriteError
-    from ..io.solids import GRID_FORMATS, TET_FORMATS, has_tets
+    from ..io import GRID_FORMATS, TET_FORMATS, has_tets
 
     src = Path(args.mesh).suffix.lower()
     if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
@@ -77,10 +78,14 @@ def run(args):
                          f"the output name")
     out, _ = check_outputs([("-o", args.output, allowed), ("--render", args.render, (".png",))],
                            [args.mesh, args.samples])
-    bar = step_bar(args, 7)
+    # the mask's digital surface is built without a "graph" step; a surface is first voxelised or tetrahedralised
+    solid = {"mask": (), "tets": ()}.get(kind, ("voxelize",) if form == "voxels" else ("tetrahedralize",))
+    bar = step_bar(args, ("graph",) * (kind != "mask") + SURFACE_STEPS[args.method] + solid + ("fill",))
     surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
                         levels=levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
-                        progress=bar)
+                        solver=args.solver, progress=bar)
+    if args.weights is not None:  # else the library's default for the kind of solid
+        surface_opts["weights"] = args.weights
     try:
         r, S, form = _volume_run(args, kind, form, surface_opts)
     finally:
@@ -101,11 +106,10 @@ def _check_samples(args, S):
 
 def _volume_run(args, kind, form, surface_opts):
     """Read the solid and the samples, run Steps 1-8; print what was read."""
-    from ..io.registry import read_mesh_file
-    from ..io.samples import read_samples
-    from ..solid.reconstruct_volume import digital_surface, reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
-    from ..solid.tets import boundary_faces
-    from ..io.solids import read_mask, read_tets
+    from ..io import read_mask, read_mesh_file, read_samples, read_tets
+    from ..solid.boundary import digital_surface
+    from ..solid.reconstruct_volume import reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
+    from ..solid.tets import boundary_vertices
 
     if kind == "mask":
         mask, h, o = read_mask(args.mesh, field=args.mask_field)
@@ -119,15 +123,12 @@ def _volume_run(args, kind, form, surface_opts):
         print(f"voxel mask {mask.shape}, {int(mask.sum()):,} voxels; digital surface {len(voxels):,} voxels")
     elif kind == "tets":
         V, T = read_tets(args.mesh)
-        on_d = np.unique(boundary_faces(T, V=V))
-        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap)
+        on_d = boundary_vertices(T, V=V)
+        # positions snap to the boundary, not to inner vertices
+        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap, snap_to=on_d)
         _check_samples(args, S)
-        if S.snap_distance is not None:  # positions: snap to the boundary, not to inner vertices
-            S = read_samples(args.samples, V[on_d], duplicates=args.duplicates, max_distance=args.max_snap)
-            S.idx = on_d[S.idx]
-        r = reconstruct_volume_tets(V, T, S.idx, S.vals, fill_weights=args.fill_weights,
-                                    fill_solver="auto" if args.fill_solver == "multigrid" else args.fill_solver,
-                                    weights=args.weights, solver=args.solver, **surface_opts)
+        r = reconstruct_volume_tets(V, T, S.idx, S.vals, fill_weights=args.fill_weights, fill_solver=args.fill_solver,
+                                    **surface_opts)
         print(f"tetrahedral mesh: {len(V):,} vertices, {len(T):,} tets, {on_d.size:,} on the boundary")
     else:
         mesh = read_mesh_file(args.mesh)
@@ -138,7 +139,7 @@ def _volume_run(args, kind, form, surface_opts):
         r = reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,
                                connectivity=args.connectivity, max_volume=args.max_volume,
                                fill_solver=args.fill_solver, fill_weights=args.fill_weights,
-                               allow_open=args.allow_open, weights=args.weights, solver=args.solver, **surface_opts)
+                               allow_open=args.allow_open, **surface_opts)
         print(f"surface: {len(V):,} vertices, {len(F):,} faces")
     return r, S, form
 
@@ -146,28 +147,21 @@ def _volume_run(args, kind, form, surface_opts):
 def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
     from .common import chosen_field, print_time
-    from ..io.registry import BOUNDARY_MASK, SAMPLE_MASK
+    from ..io import write_tets, write_vti
+    from ..report import value_ranges
     from ..solid.tets import boundary_faces
-    from ..io.solids import write_tets, write_vti
 
-    X = r.values if r.values.ndim == (4 if form == "voxels" else 2) else r.values[..., None]
-    fields = {name: X[..., j] for j, name in enumerate(S.names)}
+    X = r.fields()
     if form == "voxels":
-        if ext == ".vti":
-            fields[BOUNDARY_MASK] = r.fixed
-        write_vti(out, fields, r.spacing, r.origin)
+        # a .npy holds the one field alone
+        write_vti(out, r.point_data(S.names) if ext == ".vti" else {S.names[0]: X[..., 0]}, r.spacing, r.origin)
         fill = r.report["fill"]
-        print(f"voxels: grid {X.shape[:3]}, spacing {np.round(r.spacing, 6).tolist()}, {fill['voxels']:,} inside, "
+        spacing = [round(float(v), 6) for v in r.spacing]
+        print(f"voxels: grid {X.shape[:3]}, spacing {spacing}, {fill['voxels']:,} inside, "
               f"{fill['fixed']:,} on the boundary D, {fill['unknowns']:,} filled ({fill['solver']}, "
               f"connectivity {fill['connectivity']}, iterations {fill['iterations']})")
     else:
-        boundary = np.zeros(len(r.TV), dtype=bool)
-        boundary[np.unique(boundary_faces(r.TT))] = True
-        fields[BOUNDARY_MASK] = boundary
-        sample = np.zeros(len(r.TV), dtype=bool)
-        sample[S.idx] = True  # tet vertices (a surface keeps its vertices first in the tetrahedralisation)
-        fields[SAMPLE_MASK] = sample
-        write_tets(out, r.TV, r.TT, fields)
+        write_tets(out, r.TV, r.TT, r.point_data(S.names))
         print(f"tets: {len(r.TV):,} vertices, {len(r.TT):,} tetrahedra")
     print_time(args, r.report["seconds"])
     j = S.names.index(chosen_field(args, S.names))
@@ -181,10 +175,8 @@ def _volume_write(args, out, ext, r, S, form):
 
             render(r.TV, boundary_faces(r.TT), X[:, j], args.render, name=S.names[j], title="boundary of the solid")
         print(f"rendered {args.render} ({S.names[j]})")
-    finite = X[np.isfinite(X[..., 0])]
-    lo, hi = S.vals.min(axis=0), S.vals.max(axis=0)
+    (lo, hi), (vlo, vhi) = value_ranges(S.vals), value_ranges(X, r.point_ndim)
     for j, name in enumerate(S.names):
-        print(f"{name}: samples in [{lo[j]:.4g}, {hi[j]:.4g}], solid in [{finite[:, j].min():.4g}, "
-              f"{finite[:, j].max():.4g}]")
+        print(f"{name}: samples in [{lo[j]:.4g}, {hi[j]:.4g}], solid in [{vlo[j]:.4g}, {vhi[j]:.4g}]")
     print(f"wrote {out}")
     return 0

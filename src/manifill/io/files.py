@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..errors import ManifillError, ReadError, WriteError
 
-__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file"]
+__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles"]
 
 #: loggers of the parsers that print their notes through handlers of their own
 _PARSER_LOGGERS = ("nibabel",)
@@ -155,6 +155,26 @@ def check_count(count, path, what, *, bytes_each, start=0):
     if count * bytes_each > size - start:
         raise ReadError(f"{Path(path).name}: the header claims {count:,} {what} but only {max(size - start, 0):,} "
                         f"bytes follow; the file is truncated or damaged, check it")
+
+
+def no_triangles(path, kinds):
+    """Raise the ReadError of a mesh file that holds no triangles.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file read.
+    kinds : list of str
+        The kinds of cells it holds (``'tetra'`` adds a hint to use ``manifill volume``).
+
+    Raises
+    ------
+    ReadError
+        Always.
+    """
+    hint = "; for a solid of tetrahedra use 'manifill volume'" if "tetra" in kinds else ""
+    raise ReadError(f"{Path(path).name}: holds no triangles (cells found: {', '.join(kinds) or 'none'}){hint}; "
+                    f"pass a surface mesh")
 
 
 @contextmanager

@@ -4,45 +4,31 @@ Every mesh format is one entry of :data:`MESH_FORMATS`: how manifill reads and w
 it, whether it holds named per-vertex fields, which common readers see those
 fields, and whether reading it keeps the file's vertex numbering (STL does not:
 its reader merges the corners of its triangles). :func:`read_mesh_file` and
-:func:`write_mesh` dispatch on the extension; FreeSurfer surfaces (``lh.pial``,
-``rh.white``: no telling extension) are recognised by their first bytes.
+:func:`write_mesh` dispatch on the extension to the readers and writers of
+:mod:`manifill.io.vtkxml_read`, :mod:`manifill.io.vtkxml_write`,
+:mod:`manifill.io.vtklegacy_read`, :mod:`manifill.io.vtklegacy_write`,
+:mod:`manifill.io.meshio_files` and :mod:`manifill.io.neuro`; FreeSurfer surfaces
+(``lh.pial``, ``rh.white``: no telling extension) are recognised by their first bytes.
 
-Fields keep their names where the format allows any text (VTU, VTP, VTI); PLY
-and legacy VTK store plain words, so there other characters become ``_``
-(:func:`stored_names` says what was renamed). A name no format can store (empty,
-or with line breaks or other control characters) is refused. Mask and label
-arrays have one naming scheme everywhere: :data:`SAMPLE_MASK`,
-:data:`CURVE_MASK`, :data:`PATCH_LABEL`, :data:`BOUNDARY_MASK`.
-
-Every write is atomic (:func:`manifill.io.files.atomic_path`); every read of a
-damaged file ends in one :class:`~manifill.errors.ReadError` naming the file.
-Samples and per-vertex values are read and written by :mod:`manifill.io.samples`.
+Field names and manifill's mask names are :mod:`manifill.io.field_names`'. Every
+write is atomic (:func:`manifill.io.files.atomic_path`); every read of a damaged
+file ends in one :class:`~manifill.errors.ReadError` naming the file. Samples and
+per-vertex values are read and written by :mod:`manifill.io.samples`.
 """
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import ManifillError, ReadError, WriteError
-from .files import atomic_path, check_count, check_input_file, quiet, reading, suffix
-from .samples import SAMPLE_FORMATS, VALUE_FORMATS, read_samples, write_values
+from .field_names import stored_names
+from .files import check_input_file, no_triangles
+from .meshio_files import read_meshio, write_meshio
 
-__all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK",
-           "RESERVED_NAMES", "read_mesh", "read_mesh_file", "write_mesh", "stored_names", "check_field_names",
-           "format_note", "write_cells", "atomic_path", "read_samples", "write_values", "SAMPLE_FORMATS",
-           "VALUE_FORMATS"]
+__all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh", "read_mesh_file",
+           "check_cells", "write_mesh", "write_cells", "format_note"]
 
-#: 1 where a vertex (or voxel) holds a sample
-SAMPLE_MASK = "sample_mask"
-#: 1 on the partition curves (their values were fixed before the harmonic fill)
-CURVE_MASK = "curve_mask"
-#: the patch of every vertex, -1 on the curves
-PATCH_LABEL = "patch_label"
-#: 1 on the boundary of a solid (tet vertices on its surface; voxels of D, filled from the surface)
-BOUNDARY_MASK = "boundary_mask"
-RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK)
 
 
 @dataclass(frozen=True)
@@ -172,18 +158,18 @@ def read_mesh_file(path):
     fmt = mesh_format(path)
     check_input_file(path)
     if fmt.reader == "meshio":
-        V, F, point_data = _read_meshio(path, fmt)
+        V, F, point_data = read_meshio(path, fmt)
     elif fmt.reader == "vtkxml":
-        from .vtkxml import read_polydata
+        from .vtkxml_read import read_polydata
 
         V, F, point_data = read_polydata(path)
     elif fmt.reader == "legacy":
-        from .vtklegacy import read_legacy
+        from .vtklegacy_read import read_legacy
 
         V, cells, point_data = read_legacy(path)
         F = cells.get("triangle")
         if F is None or len(F) == 0:
-            _no_triangles(path, sorted(k for k, c in cells.items() if len(c)))
+            no_triangles(path, sorted(k for k, c in cells.items() if len(c)))
     elif fmt.reader == "gifti":
         from .neuro import read_gifti
 
@@ -250,189 +236,6 @@ def read_mesh(path):
     """
     m = read_mesh_file(path)
     return m.V, m.F
-
-
-def _no_triangles(path, kinds):
-    hint = "; for a solid of tetrahedra use 'manifill volume'" if "tetra" in kinds else ""
-    raise ReadError(f"{Path(path).name}: holds no triangles (cells found: {', '.join(kinds) or 'none'}){hint}; "
-                    f"pass a surface mesh")
-
-
-def _read_meshio(path, fmt):
-    """A surface through meshio's reader of one format, damaged files as one-line :class:`ReadError`."""
-    import meshio
-
-    ext = path.suffix.lower()
-    if ext == ".off":
-        _check_off_header(path)
-    elif ext == ".ply":
-        _check_ply_header(path)
-    with reading(path, f"{fmt.name} mesh"):
-        mesh = getattr(meshio, ext[1:]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
-        faces = []
-        for block in mesh.cells:
-            data = np.asarray(block.data)
-            if block.type == "triangle":
-                faces.append(data.reshape(-1, 3))
-            elif block.type == "quad":
-                q = data.reshape(-1, 4)
-                faces.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
-            elif block.type.startswith("polygon") and data.ndim == 2 and data.shape[1] > 4:
-                faces += [data[:, [0, j, j + 1]] for j in range(1, data.shape[1] - 1)]
-        if not faces:
-            _no_triangles(path, sorted({b.type for b in mesh.cells}))
-        F = np.concatenate(faces)
-        if F.dtype.kind not in "iu":
-            raise ReadError(f"{path.name}: the faces are stored as {F.dtype}, not integers; check the file")
-        V = np.asarray(mesh.points, dtype=np.float64)
-        point_data = {k: np.asarray(v) for k, v in mesh.point_data.items()}
-    return V, F.astype(np.int64), point_data
-
-
-def _check_off_header(path):
-    """Reject an OFF file without its counts line, or with counts the file cannot hold."""
-    words = []
-    try:
-        with open(path, "rb") as fh:
-            for raw in fh:
-                line = raw.split(b"#")[0].strip()
-                if line:
-                    words.extend(line.split())
-                if len(words) >= 4:
-                    break
-    except OSError as exc:
-        raise ReadError(f"{path.name}: could not read ({exc})") from None
-    counts = None
-    if len(words) >= 4 and words[0].endswith(b"OFF"):
-        try:
-            counts = [int(w) for w in words[1:4]]
-        except ValueError:
-            counts = None
-    if counts is None:
-        raise ReadError(f"{path.name}: not a readable OFF mesh (no 'OFF' line followed by vertex, face "
-                        f"and edge counts); check the file")
-    check_count(counts[0], path, "vertices", bytes_each=6)
-    check_count(counts[1], path, "faces", bytes_each=8)
-
-
-#: bytes of one PLY property value in a binary file
-_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
-              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "int64": 8, "uint64": 8,
-              "double": 8, "float64": 8}
-_PLY_END = re.compile(rb"^[ \t\r\v\f]*end_header[ \t\r\v\f]*$", re.M)
-
-
-def _check_ply_header(path):
-    """Reject a PLY file whose header never ends (meshio would wait for it forever) or whose counts lie."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(1 << 16)
-    except OSError as exc:
-        raise ReadError(f"{path.name}: could not read ({exc})") from None
-    end = _PLY_END.search(head)
-    if end is None:
-        raise ReadError(f"{path.name}: not a readable PLY mesh (no 'end_header' line closes its header); the file "
-                        f"is truncated or damaged, check it")
-    lines = [line.split() for line in head[:end.start()].decode("latin-1").splitlines()]
-    binary = any(w[:1] == ["format"] and len(w) > 1 and w[1].startswith("binary") for w in lines)
-    elements = []  # [name, count, fewest bytes of one]
-    for w in lines:
-        if w[:1] == ["element"] and len(w) >= 3:
-            if not re.fullmatch(r"[0-9]{1,30}", w[2]):
-                raise ReadError(f"{path.name}: the header line 'element {w[1]} {w[2][:40]}' gives no count; the "
-                                f"file is damaged, check it")
-            elements.append([w[1], int(w[2]), 0])
-        elif w[:1] == ["property"] and elements:
-            kind = w[2] if len(w) > 2 and w[1] == "list" else (w[1] if len(w) > 1 else "")
-            elements[-1][2] += _PLY_SIZES.get(kind, 1) if binary else 2
-    for name, n, each in elements:
-        check_count(n, path, f"'{name}' elements", bytes_each=max(each, 1), start=end.end() + 1)
-
-
-_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
-
-
-def check_field_names(names, path=None, *, masks=True):
-    """Refuse field names that no format can store, or that a mask of manifill's uses.
-
-    Parameters
-    ----------
-    names : iterable of str
-    path : str or Path, optional
-        The output (for the message).
-    masks : bool, optional
-        Also refuse :data:`RESERVED_NAMES` (the output gets those masks).
-
-    Raises
-    ------
-    WriteError
-        An empty name, a name with a line break or another control character,
-        a comma or quote for a CSV ``path``, or a reserved name; the message
-        says how to rename it.
-    """
-    where = f"{Path(path).name}: " if path is not None else ""
-    for name in names:
-        name = str(name)
-        if not name.strip():
-            raise WriteError(f"{where}a field has an empty name; give every value column a name")
-        if _CONTROL.search(name):
-            raise WriteError(f"{where}field name {name!r} holds a line break or control character, which no mesh "
-                             f"format can store; rename the value column")
-        if path is not None and Path(path).suffix.lower() == ".csv" and ("," in name or '"' in name):
-            raise WriteError(f"{where}field name {name!r} holds a comma or quote, which a CSV header cannot hold; "
-                             f"rename the value column or write .npy")
-        if masks and name in RESERVED_NAMES:
-            raise WriteError(f"{where}field name {name!r} is the name of manifill's mask in the output; rename the "
-                             f"value column")
-
-
-def stored_names(names, ext):
-    """The name each field gets in a file of extension ``ext``.
-
-    VTU, VTP and VTI keep any text; PLY, legacy VTK and Gmsh hold plain ASCII
-    words, so there every other character becomes ``_`` (and PLY's ``x``, ``y``, ``z``, a
-    leading digit or a repeated name get a ``field_`` prefix).
-
-    Parameters
-    ----------
-    names : iterable of str
-    ext : str
-        The extension, with its dot.
-
-    Returns
-    -------
-    dict of str to str
-
-    Raises
-    ------
-    WriteError
-        As :func:`check_field_names` (reserved names allowed).
-
-    Examples
-    --------
-    >>> stored_names(["temp (K)", "x"], ".ply")
-    {'temp (K)': 'temp__K_', 'x': 'field_x'}
-    >>> stored_names(["temp (K)"], ".vtu")
-    {'temp (K)': 'temp (K)'}
-    """
-    names = [str(n) for n in names]
-    check_field_names(names, masks=False)
-    if ext not in (".ply", ".vtk", ".msh"):
-        return {n: n for n in names}
-    out, taken = {}, set()
-    for name in names:
-        key = re.sub(r"[^0-9A-Za-z_]", "_", name)
-        if ext == ".ply" and (key in ("x", "y", "z") or key[0].isdigit()):
-            key = f"field_{key}"
-        if ext == ".vtk" and (key.lower().startswith("metadata") or key == "NULL_ARRAY"):
-            key = f"field_{key}"  # VTK's reader takes such a line for a section of its own
-        while key in taken:
-            key = f"field_{key}"
-        taken.add(key)
-        out[name] = key
-    return out
-
-
 def format_note(path):
     """One line telling which common readers will not see the fields of ``path`` (None if all do).
 
@@ -493,7 +296,7 @@ def write_mesh(path, V, F, point_data=None):
     Returns
     -------
     dict of str to str
-        The name each field was written under (see :func:`stored_names`).
+        The name each field was written under (see :func:`manifill.io.field_names.stored_names`).
 
     Raises
     ------
@@ -554,38 +357,17 @@ def write_cells(path, V, C, point_data=None):
         else:
             out[key] = arr
     if ext == ".vtp":
-        from .vtkxml import write_polydata
+        from .vtkxml_write import write_polydata
 
         write_polydata(path, V, C, out)
     elif ext == ".vtu":
-        from .vtkxml import write_unstructured
+        from .vtkxml_write import write_unstructured
 
         write_unstructured(path, V, C, out)
     elif ext == ".vtk":
-        from .vtklegacy import write_legacy
+        from .vtklegacy_write import write_legacy
 
         write_legacy(path, V, kind, C, out)
     else:
-        _write_meshio(path, V, [(kind, C.astype(np.int32))], out, "gmsh22" if ext == ".msh" else ext[1:])
+        write_meshio(path, V, [(kind, C.astype(np.int32))], out, "gmsh22" if ext == ".msh" else ext[1:])
     return names
-
-
-def _write_meshio(path, V, cells, point_data, fmt):
-    import meshio
-
-    mesh = meshio.Mesh(np.asarray(V, dtype=np.float64), cells, point_data=point_data)
-    with atomic_path(path) as tmp:
-        try:
-            with quiet():  # meshio prints its notes (e.g. Gmsh's "Appending zeros") itself
-                meshio.write(tmp, mesh, file_format=fmt)
-        except (meshio.WriteError, ValueError, KeyError, TypeError, OSError) as exc:
-            raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path and the fields") from None
-
-
-
-def meshio_read(path, ext, fmt):
-    """meshio's reader of one format, with a damaged file as one-line :class:`ReadError`."""
-    import meshio
-
-    with reading(path, f"{ext[1:].upper()} mesh"):
-        return getattr(meshio, fmt).read(str(path))  # not meshio.read: it sys.exit()s on bad files

@@ -64,7 +64,7 @@ def _sample_kind(path):
     return suffix(path, SAMPLE_FORMATS + ("(FreeSurfer lh.thickness, ...)",), "read")
 
 
-def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None):
+def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None, snap_to=None):
     """Read samples, snapping positions to vertices.
 
     Parameters
@@ -82,6 +82,11 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         Why the mesh's vertex numbers are not the file's (e.g. an STL, whose
         reader renumbers): samples by vertex index are then refused with this
         reason (:attr:`manifill.io.registry.MeshFile.vertex_numbering`).
+    snap_to : (d,) array_like of int, optional
+        The only vertices positions snap to (e.g. the boundary vertices of a tetrahedral
+        solid, :func:`manifill.solid.tets.boundary_vertices`); every vertex by
+        default. The samples keep ``V``'s vertex numbers. Samples given by
+        vertex index are not affected.
 
     Returns
     -------
@@ -135,8 +140,14 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
     try:
         if kind == "vertex":
             return Samples.from_indices(col.astype(np.int64), table[:, 1:], n, names=names, duplicates=duplicates)
-        return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
-                                   max_distance=max_distance)
+        if snap_to is None:
+            return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
+                                       max_distance=max_distance)
+        snap_to = np.unique(np.asarray(snap_to, dtype=np.int64))
+        S = Samples.from_points(np.asarray(V, dtype=np.float64)[snap_to], table[:, :3], table[:, 3:], names=names,
+                                duplicates=duplicates, max_distance=max_distance)
+        S.idx = snap_to[S.idx]
+        return S
     except SampleError as exc:  # the file's samples are wrong: the message names the file
         msg = str(exc)
         raise SampleError(msg if msg.startswith(f"{path.name}:") else f"{path.name}: {msg}") from None

@@ -5,9 +5,9 @@ A voxel result is written as VTK ImageData (``.vti``): one point per voxel centr
 field as named point data (NaN outside the solid), zlib-compressed binary,
 readable by ParaView, VTK and pyvista. The same writer's files, and ImageData
 from elsewhere in any VTK XML encoding, read back with :func:`read_vti` (both
-through :mod:`manifill.io.vtkxml`). A mask can
+through :mod:`manifill.io.vtkxml_read` and :mod:`manifill.io.vtkxml_write`). A mask can
 also come as a ``.npy`` boolean array. Tetrahedral meshes go through meshio.
-Writes are atomic, as in :mod:`manifill.io.registry`.
+Writes are atomic (:func:`manifill.io.files.atomic_path`).
 """
 
 import base64  # noqa: F401  (manifill.io.solids.base64 is the module the VTI writer encodes with)
@@ -17,10 +17,12 @@ import numpy as np
 
 from ..errors import ReadError, WriteError
 from .files import atomic_path, suffix
-from .registry import check_cells, meshio_read
-from .vtkxml import grid_arrays, read_imagedata, write_imagedata
+from .meshio_files import meshio_read
+from .registry import check_cells, write_cells
+from .vtkxml_read import read_imagedata
+from .vtkxml_write import grid_arrays, write_imagedata
 
-__all__ = ["TET_FORMATS", "GRID_FORMATS", "read_tets", "write_tets", "write_vti", "read_vti", "read_mask"]
+__all__ = ["TET_FORMATS", "GRID_FORMATS", "read_tets", "write_tets", "write_vti", "read_vti", "read_mask", "has_tets"]
 
 #: extension -> meshio format of tetrahedral meshes
 TET_FORMATS = {".vtu": "vtu", ".vtk": "vtk", ".msh": "gmsh"}
@@ -50,7 +52,7 @@ def read_tets(path):
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
     if ext == ".vtk":
-        from .vtklegacy import read_legacy
+        from .vtklegacy_read import read_legacy
 
         V, cells, _ = read_legacy(path)
         if len(cells.get("tetra", ())) == 0:
@@ -147,7 +149,18 @@ def _gmsh_nodes(code):
 
 
 def has_tets(path):
-    """Whether a mesh file holds tetrahedra (a cheap test for choosing the form)."""
+    """Whether a mesh file holds tetrahedra (a cheap test for choosing the form).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.vtu``, ``.vtk`` or ``.msh`` file.
+
+    Returns
+    -------
+    bool
+        False also for a file :func:`read_tets` refuses.
+    """
     try:
         read_tets(path)
     except ReadError:
@@ -169,7 +182,7 @@ def write_tets(path, V, T, point_data=None):
     Returns
     -------
     dict of str to str
-        The name each field was written under (see :func:`manifill.io.registry.stored_names`).
+        The name each field was written under (see :func:`manifill.io.field_names.stored_names`).
 
     Raises
     ------
@@ -178,7 +191,6 @@ def write_tets(path, V, T, point_data=None):
         failure while writing (nothing is left behind).
     """
     from ..errors import ManifillError
-    from .registry import write_cells
     from ..validate import as_tets
 
     suffix(path, tuple(TET_FORMATS), "write")

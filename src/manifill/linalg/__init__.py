@@ -1,1 +1,11 @@
-"""The solve core: constrained quadratic energies, solver backends, PCG, algebraic and voxel multigrid."""
+"""The solve core: constrained quadratic energies, solver backends, PCG, algebraic and voxel multigrid.
+
+- :mod:`manifill.linalg.quadratic` - ``QuadraticSolver``: minimise ``1/2 x'Ax + c'x`` with ``x[idx] = vals``
+  (the Dirichlet reduction, components without a fixed index); every fill goes through it
+- :mod:`manifill.linalg.backends` - the backends ``direct``, ``amg``, ``iterate`` of the reduced system
+- :mod:`manifill.linalg.pcg` - the one preconditioned conjugate gradient loop
+- :mod:`manifill.linalg.threads` - the one thread policy
+- :mod:`manifill.linalg.amg` - the smoothed-aggregation hierarchy of the ``amg`` backend
+- :mod:`manifill.linalg.gridmg`, :mod:`manifill.linalg.gridlevels` - the voxel geometric multigrid, a
+  matrix-free backend for grids
+"""

@@ -1,13 +1,11 @@
 """Smoothed-aggregation multigrid for the Laplacian systems of :mod:`manifill.linalg.backends`.
 
 The hierarchy is built in CSR around pyamg's aggregation and Gauss-Seidel
-kernels; the cycle runs in float32 inside float64 conjugate gradients; independent
-blocks of a system are dealt to threads. :class:`manifill.linalg.backends.AMGSolver`
+kernels; the cycle runs in float32 inside float64 conjugate gradients
+(:func:`manifill.linalg.pcg.pcg`); independent blocks of a system are dealt to
+threads (:func:`manifill.linalg.threads.workers`). :class:`manifill.linalg.backends.AMGSolver`
 documents every setting and why.
 """
-
-import math
-import os
 
 import numpy as np
 import scipy.sparse as sp
@@ -15,29 +13,9 @@ from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
 from ..mesh.topology import pattern_components
+from .pcg import nrm2, pcg
 
-__all__ = ["Multigrid", "canonical_csr", "independent_blocks", "workers"]
-
-
-def _dot(x, y):
-    """Inner product of two float64 vectors.
-
-    ``einsum`` rather than ``x @ y``: BLAS may run a level-1 product on several
-    threads, which on a busy machine costs more in waiting than it saves.
-    """
-    return float(np.einsum("i,i->", x, y))
-
-
-def _nrm2(x):
-    """Euclidean norm of a float64 vector, rescaled where the plain sum of squares over- or underflows."""
-    ss = _dot(x, x)
-    if 1e-280 < ss < 1e280:
-        return math.sqrt(ss)
-    m = float(np.abs(x).max()) if x.size else 0.0
-    if m == 0.0 or not math.isfinite(m):
-        return m
-    y = x / m
-    return m * math.sqrt(_dot(y, y))
+__all__ = ["Multigrid", "canonical_csr", "independent_blocks"]
 
 
 def canonical_csr(A):
@@ -168,50 +146,31 @@ class Multigrid:
     def pcg(self, r0, x0):
         """Solve ``A x = r0`` from ``x0`` until ``||r|| <= rtol ||r0||``: ``(x, iterations)``.
 
-        Flexible PCG on the correction ``e = (x - x0) / s``, ``s`` the initial
-        residual norm, so that every quantity is of order one whatever the scale
-        of ``r0`` (no under- or overflow in the inner products). ``x0`` is
-        overwritten.
+        Flexible PCG (the loop of :func:`manifill.linalg.pcg.pcg`) on the
+        correction ``e = (x - x0) / s``, ``s`` the initial residual norm, so
+        that every quantity is of order one whatever the scale of ``r0`` (no
+        under- or overflow in the inner products). ``x0`` is overwritten.
         """
         A = self.A
-        r0norm = _nrm2(r0)
+        r0norm = nrm2(r0)
         if r0norm == 0.0:
             return np.zeros_like(r0), 0  # the exact answer, from any x0
         r = r0 - A @ x0 if x0.any() else r0.copy()
-        s = _nrm2(r)
+        s = nrm2(r)
         target = self.rtol * r0norm
         if s <= target:
             return x0, 0
         r *= 1.0 / s
         target /= s
         e = np.zeros_like(r)
-        tmp = np.empty_like(r)
-        z = self._precondition(r, 1.0)
-        p = z.copy()
-        rz = _dot(r, z)
-        its, rnorm = 0, 1.0
-        while its < self.maxiter:
-            Ap = A @ p
-            pAp = _dot(p, Ap)
-            if not (pAp > 0 and rz > 0):
-                break  # breakdown: A or the preconditioner is not positive definite
-            alpha = rz / pAp
-            e += np.multiply(p, alpha, out=tmp)
-            r -= np.multiply(Ap, alpha, out=tmp)
-            its += 1
-            rnorm = _nrm2(r)
-            if rnorm <= target:
-                x0 += np.multiply(e, s, out=tmp)
-                return x0, its
-            z = self._precondition(r, rnorm)
-            rz_new = _dot(r, z)
-            beta = -alpha * _dot(z, Ap) / rz  # = z.(r_new - r_old) / rz: flexible CG
-            rz = rz_new
-            p *= beta
-            p += z
+        res = pcg(lambda p: A @ p, r, e, precondition=self._precondition, rtol=target, maxiter=self.maxiter,
+                  flexible=True)
+        if res.converged:
+            x0 += np.multiply(e, s, out=r)
+            return x0, res.iterations
         raise SolveError(
             f"AMG-preconditioned CG did not reach rtol={self.rtol:g} in {self.maxiter} iterations "
-            f"(residual {rnorm * s / r0norm:.1e}); use solver='direct' or check the weights"
+            f"(residual {res.residual * s / r0norm:.1e}); use solver='direct' or check the weights"
         )
 
     def solve(self, R, X):
@@ -221,14 +180,6 @@ class Multigrid:
             X[:, j], k = self.pcg(np.ascontiguousarray(R[:, j]), np.array(X[:, j]))
             its.append(k)
         return X, its
-
-
-def workers():
-    """CPUs this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
 
 
 def independent_blocks(A, k):

@@ -15,6 +15,12 @@ Three backends, each an object built once from ``A`` (the expensive part) whose
     The paper's own scheme: every unknown replaced by the weighted average of its
     neighbours, sweep after sweep (Jacobi, or Gauss-Seidel which uses new values
     at once), until the largest change in a sweep is below a tolerance.
+
+A backend is any object with ``name``, ``setup_seconds`` and ``solve(R, x0)``
+returning ``(X, info)``; the solve core
+(:class:`manifill.linalg.quadratic.QuadraticSolver`) builds one of these three
+with :func:`make_linear_solver`, and the voxel fill uses a fourth, the
+matrix-free :class:`manifill.linalg.gridmg.GridMultigrid`.
 """
 
 import time
@@ -26,7 +32,8 @@ from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
-from .amg import Multigrid, canonical_csr, independent_blocks, workers
+from .amg import Multigrid, canonical_csr, independent_blocks
+from .threads import workers
 from ..tolerances import TOL
 from ..validate import check_option
 
@@ -165,7 +172,8 @@ class AMGSolver:
     *Blocks.* When ``A`` is block diagonal up to a permutation (fixed
     vertices that cut the mesh into patches) and has at least ``MIN_SPLIT``
     unknowns, its connected components are dealt into as many balanced sets
-    as there are CPUs (at most ``MAX_THREADS``), and each set gets its own
+    as there are CPUs (:func:`manifill.linalg.threads.workers`, at most
+    ``MAX_THREADS``), and each set gets its own
     hierarchy and conjugate gradients, built and run in a thread of its own.
     SciPy's sparse kernels and NumPy's vector operations release the GIL
     (pyamg's Gauss-Seidel, a fifth of the time, does not), so on two idle
@@ -216,7 +224,7 @@ class AMGSolver:
         self.operator_complexity = 0.0
         if A.shape[0] == 0:
             return
-        threads = min(workers(), self.MAX_THREADS)
+        threads = workers(self.MAX_THREADS)
         blocks = independent_blocks(self.A, threads) if threads > 1 and A.shape[0] >= self.MIN_SPLIT else None
         if blocks is None:
             self._parts = [(None, Multigrid(self.A, self))]

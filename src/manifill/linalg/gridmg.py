@@ -3,8 +3,8 @@
 The Dirichlet problem on the voxels of a mask (Step 8) is solved by conjugate
 gradients preconditioned with a geometric V-cycle, all matrix-free on 3-D
 arrays: no sparse matrix of the fine grid is ever built. Every level is the same
-stencil (:func:`manifill.solid.voxels.stencil_weights`) on a grid twice as coarse
-along the axes that are coarsened; anisotropic spacing coarsens only the finer
+stencil on a grid twice as coarse along the axes that are coarsened
+(:mod:`manifill.linalg.gridlevels`); anisotropic spacing coarsens only the finer
 axes until the voxels are nearly cubic (semi-coarsening). Transfers are
 trilinear interpolation and its transpose (full weighting); the smoother is
 damped Jacobi; the coarsest grid is solved exactly by a sparse LU. The cycle is
@@ -13,243 +13,48 @@ double, which keeps the result to the requested residual. The spacing is first
 divided by a power of two that brings it to about unit size: a common factor of
 all weights does not change the solution, and weights of ``1 / h**2`` for voxels
 of ``1e30`` (or ``1e-30``) would be beyond single precision.
+
+The stencil is the caller's: a function ``stencil(spacing, connectivity)``
+returning the neighbour offsets and their weights
+(:func:`manifill.solid.voxels.stencil_weights` for the fill of Step 8), so this
+module knows grids and multigrid, not the geometry of voxels. The conjugate
+gradients are the loop of :func:`manifill.linalg.pcg.pcg`, with this module's
+threaded inner products and vector updates; the threads are those of
+:func:`manifill.linalg.threads.workers`.
+
+:class:`GridMultigrid` is a solver backend like those of
+:mod:`manifill.linalg.backends` (``name``, ``setup_seconds``, ``solve(R, x0)``
+returning ``(X, info)``), for the Dirichlet problem of
+:class:`manifill.solid.fill.VoxelFill`, on vectors of the padded grid.
 """
 
-import os
+import time
 from concurrent.futures import ThreadPoolExecutor
-from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
 from scipy.sparse.linalg import splu
 
-from ..solid.voxels import unit_spacing, stencil_weights, voxel_laplacian
+from ..tolerances import TOL
+from ..validate import unit_scale
+from .gridlevels import Level, coarse_axes, free_matrix, prolong_axis, restrict_axis, wall_weights
+from .pcg import pcg
+from .threads import workers as thread_count
 
 __all__ = ["GridMultigrid"]
 
-#: Damping of the Jacobi smoother used with 18 and 26 neighbours.
-OMEGA = 0.7
 #: Unknowns at or below which a level is solved directly.
 COARSE_MAX = 4000
-#: Jacobi sweeps before and after the coarse-grid correction (18 and 26 neighbours).
-SWEEPS = 2
-#: Red-black Gauss-Seidel sweeps before and after (6 neighbours).
-RB_SWEEPS = 2
 #: CG iterations over which the residual must at least halve (else the solve stops as stalled).
 STALL = 20
-#: Grid points per thread below which a level runs on one thread.
-_CHUNK = 1_000_000
-
-
-class _Chunks:
-    """The index range of a flat padded grid that holds voxels, split for threads.
-
-    Each stencil pass is a handful of NumPy operations on contiguous slices,
-    which release the GIL; a level with several million points runs them on
-    every core, one range per thread.
-    """
-
-    def __init__(self, size, margin, pool):
-        lo, hi = margin, size - margin
-        k = max(1, min(pool._max_workers if pool else 1, (hi - lo) // _CHUNK))
-        bounds = np.linspace(lo, hi, k + 1).astype(np.int64)
-        self.ranges = list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
-        self.pool = pool if k > 1 else None
-
-    def run(self, fn):
-        if self.pool is None:
-            return [fn(lo, hi) for lo, hi in self.ranges]
-        return list(self.pool.map(lambda r: fn(*r), self.ranges))
-
-
-class _Level:
-    """One grid: masks, stencil and diagonal as flat arrays of the grid padded by a zero layer.
-
-    On the flat padded array a neighbour offset is a fixed shift of the index, so
-    every stencil term is one contiguous slice operation. The first and last
-    ``margin`` entries are padding, so shifted reads never leave the array.
-    """
-
-    def __init__(self, domain, free, spacing, connectivity, dtype, pool, extra=None):
-        self.shape = domain.shape
-        self.padded = tuple(n + 2 for n in domain.shape)
-        self.spacing = np.asarray(spacing, dtype=np.float64)
-        self.dtype = dtype
-        offsets, w = stencil_weights(self.spacing, connectivity)
-        strides = np.array([self.padded[1] * self.padded[2], self.padded[2], 1])
-        shifts = offsets @ strides
-        # offsets of equal weight share one multiply
-        self.groups = [(dtype(wd), [int(o) for o in shifts[w == wd]]) for wd in np.unique(w)]
-        size = int(np.prod(self.padded))
-        self.chunks = _Chunks(size, int(strides.sum()), pool)
-        self.free = np.pad(free, 1).ravel()
-        self.free_f = self.free.astype(dtype)
-        self._tmp = np.zeros(size, dtype=dtype)
-        diag = np.zeros(size, dtype=dtype)
-        dom = np.pad(domain, 1).ravel().astype(dtype)
-        self.diag = np.zeros(size, dtype=dtype)
-        self.apply(dom, out=diag, sign=-1.0, masked=False)  # sum of the weights towards the solid
-        if extra is not None:
-            diag += np.pad(extra, 1).ravel().astype(dtype)
-        self.diag = diag * self.free_f
-        self.inv_diag = np.divide(1.0, self.diag, out=np.zeros_like(diag), where=self.diag > 0)
-        self.unknowns = int(free.sum())
-        self.colours = None
-        self.sweeps = SWEEPS
-        if connectivity == 6:
-            self.sweeps = RB_SWEEPS
-            # red-black Gauss-Seidel: with face neighbours only, a colour's voxels are independent,
-            # and one colour's update is x = (r + sum_d w_d x[i + d]) / diag there
-            i, j, k = np.indices(self.padded, sparse=True)
-            even = ((i + j + k) % 2 == 0).ravel()
-            self.colours = [(even, (even * self.inv_diag).astype(dtype)),
-                            (~even, (~even * self.inv_diag).astype(dtype))]
-
-    def _apply_range(self, x, y, lo, hi, sign=1.0, masked=True):
-        ys = y[lo:hi]
-        np.multiply(self.diag[lo:hi], x[lo:hi], out=ys)
-        t = self._neighbours_range(x, lo, hi)
-        if sign > 0:
-            ys -= t
-        else:
-            ys += t
-        if masked:
-            ys *= self.free_f[lo:hi]
-        return ys
-
-    def apply(self, x, out=None, sign=1.0, masked=True):
-        """``A x`` on the free voxels for ``x`` zero elsewhere (fixed values move to the right side).
-
-        With ``sign=-1`` and ``masked=False``: ``sum_d w_d (x[i + d] + x[i - d])`` everywhere.
-        """
-        y = np.zeros_like(x) if out is None else out
-        lo, hi = self.chunks.ranges[0][0], self.chunks.ranges[-1][1]
-        y[:lo] = 0
-        y[hi:] = 0
-        self.chunks.run(lambda lo, hi: self._apply_range(x, y, lo, hi, sign, masked))
-        return y
-
-    def _neighbours_range(self, x, lo, hi):
-        """``sum_d w_d (x[i + d] + x[i - d])`` on ``lo:hi``, in the scratch array."""
-        t = self._tmp[lo:hi]
-        for g, (wd, shifts) in enumerate(self.groups):
-            part = t if g == 0 else np.empty_like(t)
-            np.add(x[lo + shifts[0]:hi + shifts[0]], x[lo - shifts[0]:hi - shifts[0]], out=part)
-            for o in shifts[1:]:
-                part += x[lo + o:hi + o]
-                part += x[lo - o:hi - o]
-            part *= wd
-            if g:
-                t += part
-        return t
-
-    def smooth(self, x, r, order, zero=False):
-        """Half of the symmetric smoothing: red then black (``order=+1``) or back, or damped Jacobi.
-
-        ``zero`` says that ``x`` is zero on entry (the first sweep is then one product).
-        """
-        if self.colours is not None:
-            colours = self.colours[::order]
-
-            def sweep(lo, hi, colour, scale):
-                # updating one colour reads only the other: the ranges may run at once
-                t = self._neighbours_range(x, lo, hi)
-                t += r[lo:hi]
-                t *= scale[lo:hi]
-                np.copyto(x[lo:hi], t, where=colour[lo:hi])
-
-            for s in range(self.sweeps):
-                for c, (colour, scale) in enumerate(colours):
-                    if zero and s == 0 and c == 0:
-                        self.chunks.run(lambda lo, hi, scale=scale: np.multiply(r[lo:hi], scale[lo:hi],
-                                                                                  out=x[lo:hi]))
-                    else:
-                        self.chunks.run(partial(sweep, colour=colour, scale=scale))
-            return x
-        res = np.empty_like(x)
-        for _ in range(self.sweeps):
-            self.apply(x, out=res)
-            np.subtract(r, res, out=res)
-            res *= self.inv_diag
-            res *= OMEGA
-            x += res
-        return x
-
-
-def _coarse_axes(spacing, shape):
-    """Axes to coarsen: the finer ones (within a factor 1.5 of the finest), if long enough."""
-    h = np.asarray(spacing)
-    long = np.array([n > 4 for n in shape])
-    if not long.any():
-        return np.zeros(3, dtype=bool)
-    finest = h[long].min()
-    return long & (h <= 1.5 * finest)
-
-
-def _wall_weights(fixed, free_c, axes, h_c, connectivity):
-    """Extra coarse diagonal where a fixed fine voxel lies halfway to a coarse neighbour.
-
-    A coarse point two fine steps from its neighbour sees the Dirichlet wall at the
-    neighbour; when the wall is really at the fine voxel in between (half the
-    distance), the link is twice as stiff. Without this the coarse problem is too
-    soft next to the boundary and over-corrects there.
-    """
-    offsets, w = stencil_weights(h_c, connectivity)
-    extra = np.zeros(free_c.shape)
-    others = [slice(0, None, 2) if a else slice(None) for a in axes]
-    for a in np.flatnonzero(axes):
-        wa = w[(offsets[:, a] == 1) & ((offsets != 0).sum(axis=1) == 1)][0]
-        sl = list(others)
-        sl[a] = slice(1, None, 2)
-        mid = np.moveaxis(fixed[tuple(sl)], a, 0)  # fine 2k + 1, for coarse k
-        fc = np.moveaxis(free_c, a, 0)
-        ex = np.moveaxis(extra, a, 0)
-        m = fc.shape[0]
-        k = mid.shape[0]
-        # towards k + 1 through fine 2k + 1 (also when k + 1 is free: the wall between them must not vanish,
-        # or a solid fixed only at odd voxels, e.g. one plane, has a singular coarse problem)
-        plus = mid[:min(k, m - 1)]
-        ex[:plus.shape[0]] += wa * plus
-        if k >= m:  # a last fine point beyond the last coarse one
-            ex[m - 1] += wa * mid[m - 1]
-        # towards k - 1 through fine 2k - 1
-        minus = mid[:m - 1]
-        ex[1:1 + minus.shape[0]] += wa * minus
-    return extra * free_c
-
-
-def _restrict_axis(f, axis):
-    """Full weighting along one axis: coarse ``k`` gathers fine ``2k`` and half of ``2k +- 1``.
-
-    The coarse grid has ``ceil(n / 2)`` points (fine ``0, 2, 4, ...``); a last odd
-    fine point has no coarse point beyond it and gives only to the one before.
-    """
-    f = np.moveaxis(f, axis, 0)
-    n = f.shape[0]
-    m = (n + 1) // 2
-    c = f[0::2].copy()
-    odd = f[1::2]
-    c[:odd.shape[0]] += 0.5 * odd
-    c[1:] += 0.5 * odd[:m - 1]
-    c *= 0.5
-    return np.moveaxis(c, 0, axis)
-
-
-def _prolong_axis(c, axis, n):
-    """Linear interpolation along one axis onto ``n`` fine points (the transpose of the above, times 2)."""
-    c = np.moveaxis(c, axis, 0)
-    f = np.empty((n,) + c.shape[1:], dtype=c.dtype)
-    no = n // 2
-    f[0::2] = c
-    f[1::2] = c[:no]
-    f[1:2 * (c.shape[0] - 1):2] += c[1:]
-    f[1::2] *= 0.5
-    return np.moveaxis(f, 0, axis)
 
 
 class GridMultigrid:
     """CG with a geometric multigrid V-cycle for ``A x = r`` on the free voxels of a mask.
+
+    A solver backend (as those of :mod:`manifill.linalg.backends`) whose
+    vectors are flat padded grids (:meth:`pad`, :meth:`unpad`).
 
     Parameters
     ----------
@@ -259,37 +64,55 @@ class GridMultigrid:
         The unknown voxels, a subset of ``domain``; the others in ``domain``
         are fixed (Dirichlet).
     spacing : (3,) array_like of float
-        Voxel size per axis, of any magnitude: the operator is built on the
-        spacing divided by a power of two of about its size (the same solution).
+        Voxel size per axis, positive, of any magnitude: the operator is built
+        on the spacing divided by a power of two of about its size (the same
+        solution).
     connectivity : {6, 18, 26}
+        Neighbours per voxel; with 6, the smoother is red-black Gauss-Seidel.
+    stencil : callable
+        ``stencil(spacing, connectivity)`` returns ``(offsets, w)``: the
+        ``(c // 2, 3)`` integer offsets ``d`` (one of each pair ``+-d``) and
+        their positive weights (e.g. :func:`manifill.solid.voxels.stencil_weights`).
+    rtol : float, optional
+        Relative residual ``|r - A x| / |r|`` at which :meth:`solve` stops;
+        defaults to ``TOL.grid_rtol``.
+    maxiter : int, optional
+        Iteration cap of :meth:`solve` (default 200).
     workers : int, optional
-        Threads for the stencil passes (default: up to 4, one per core).
+        Threads for the stencil passes (default
+        :func:`manifill.linalg.threads.workers`).
 
     Attributes
     ----------
+    name : str
+        ``"multigrid"``.
     levels : list
         The grids, finest first.
     report : dict
         ``levels`` and ``unknowns`` per level.
-
-    Notes
-    -----
-    Vectors are flat arrays of the grid padded by one zero layer on every side
-    (:meth:`pad`, :meth:`unpad`).
+    setup_seconds : float
+        Time to build the hierarchy.
     """
 
-    def __init__(self, domain, free, spacing=(1.0, 1.0, 1.0), connectivity=6, *, workers=None):
-        workers = workers or min(os.cpu_count() or 1, 4)
+    name = "multigrid"
+
+    def __init__(self, domain, free, spacing=(1.0, 1.0, 1.0), connectivity=6, *, stencil, rtol=None,
+                 maxiter=None, workers=None):
+        t0 = time.perf_counter()
+        self.rtol = TOL.grid_rtol if rtol is None else float(rtol)
+        self.maxiter = 200 if maxiter is None else int(maxiter)
+        workers = workers or thread_count()
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
         self.shape = domain.shape
         # weights of about unit size: A and rhs() are the physical ones times one power of four
-        spacing = unit_spacing(spacing)
-        self.fine = _Level(domain, free, spacing, connectivity, np.float64, self._pool)
-        self.levels = [_Level(domain, free, spacing, connectivity, np.float32, self._pool)]
+        spacing = np.asarray(spacing, dtype=np.float64)
+        spacing = spacing / unit_scale(spacing[None])
+        self.fine = Level(domain, free, spacing, connectivity, stencil, np.float64, self._pool)
+        self.levels = [Level(domain, free, spacing, connectivity, stencil, np.float32, self._pool)]
         self.axes = []
         dom, fr, h = domain, free, np.asarray(spacing, dtype=np.float64)
         while self.levels[-1].unknowns > COARSE_MAX:
-            ax = _coarse_axes(h, dom.shape)
+            ax = coarse_axes(h, dom.shape)
             if not ax.any():
                 break
             sl = tuple(slice(0, None, 2) if a else slice(None) for a in ax)
@@ -302,19 +125,18 @@ class GridMultigrid:
             fr = fr[sl]
             h = np.where(ax, 2 * h, h)
             self.axes.append(ax)
-            self.levels.append(_Level(dom, fr, h, connectivity, np.float32, self._pool,
-                                      extra=_wall_weights(fixed, fr, ax, h, connectivity)))
+            self.levels.append(Level(dom, fr, h, connectivity, stencil, np.float32, self._pool,
+                                      extra=wall_weights(fixed, fr, ax, h, connectivity, stencil)))
         last = self.levels[-1]
         self._coarse_ids = np.flatnonzero(last.free)
         self._coarse_lu = None
         if self._coarse_ids.size:
-            # the free voxels' Laplacian, with the full diagonal: weights towards fixed voxels included
+            # the free voxels' matrix, with the full diagonal: weights towards fixed voxels included
             inner = last.free.reshape(last.padded)[1:-1, 1:-1, 1:-1]
-            L = voxel_laplacian(inner, last.spacing, connectivity)
             d = last.diag[self._coarse_ids].astype(np.float64)
-            L = L - sp.diags_array(L.diagonal()) + sp.diags_array(d)
-            self._coarse_lu = splu(sp.csc_matrix(L))
+            self._coarse_lu = splu(sp.csc_matrix(free_matrix(inner, last.spacing, connectivity, stencil, d)))
         self.report = {"levels": len(self.levels), "unknowns": [lv.unknowns for lv in self.levels]}
+        self.setup_seconds = time.perf_counter() - t0
 
     def __del__(self):
         if getattr(self, "_pool", None) is not None:
@@ -329,7 +151,7 @@ class GridMultigrid:
         return x.reshape(tuple(n + 2 for n in self.shape))[1:-1, 1:-1, 1:-1]
 
     def rhs(self, g):
-        """Right-hand side from fixed values: ``sum_d w_d g[i + d]`` at the free voxels.
+        """Right-hand side from fixed values: ``sum_d w_d g[i + d]`` at the free voxels (``-A_Ib g``).
 
         Parameters
         ----------
@@ -362,14 +184,14 @@ class GridMultigrid:
         np.subtract(r, res, out=res)
         c = res.reshape(lv.padded)[1:-1, 1:-1, 1:-1]
         for a in np.flatnonzero(self.axes[k]):
-            c = _restrict_axis(c, a)
+            c = restrict_axis(c, a)
         nxt = self.levels[k + 1]
         rc = self._buffers(nxt)[2]
         rc.reshape(nxt.padded)[1:-1, 1:-1, 1:-1] = c  # the zero border stays
         rc *= nxt.free_f
         xc = self._cycle(k + 1, rc).reshape(nxt.padded)[1:-1, 1:-1, 1:-1]
         for a in np.flatnonzero(self.axes[k])[::-1]:
-            xc = _prolong_axis(xc, a, lv.shape[a])
+            xc = prolong_axis(xc, a, lv.shape[a])
         x.reshape(lv.padded)[1:-1, 1:-1, 1:-1] += xc
         x *= lv.free_f
         lv.smooth(x, r, -1)
@@ -393,64 +215,88 @@ class GridMultigrid:
     def _dot(self, a, b):
         return float(sum(self.fine.chunks.run(lambda lo, hi: np.dot(a[lo:hi], b[lo:hi]))))
 
-    def solve(self, rhs, *, tol=1e-10, maxiter=200):
-        """Solve ``A x = rhs`` on the free voxels by preconditioned CG.
+    def pcg(self, rhs):
+        """CG preconditioned by one V-cycle for ``A x = rhs``, from ``x = 0``: ``(x, PCGResult)``.
 
-        Parameters
-        ----------
-        rhs : ((n0 + 2) * (n1 + 2) * (n2 + 2),) numpy array
-            The padded grid, flat (C order), zero outside the free voxels.
-        tol : float, optional
-            Relative residual ``|rhs - A x| / |rhs|`` to stop at.
-        maxiter : int, optional
-
-        Returns
-        -------
-        x : numpy array
-            Flat and padded like ``rhs``.
-        iterations : int
-        residual : float
-            Relative residual reached; above ``tol`` when the iteration stalled
-            (the residual did not halve in ``STALL`` iterations) or hit ``maxiter``.
+        The loop of :func:`manifill.linalg.pcg.pcg`, with inner products and
+        vector updates on the threads' ranges of the grid; it stops at
+        ``rtol``, at ``maxiter``, or when the residual did not halve in
+        ``STALL`` iterations (``status='stalled'``; a singular coarse problem,
+        whose cycle is then only semi-definite, ends so too).
         """
         A = self.fine
         x = np.zeros_like(rhs)
         r = rhs.copy()
         norm0 = np.sqrt(self._dot(r, r))
         if norm0 == 0:
-            return x, 0, 0.0
-        z = self.precondition(r)
-        p = z.copy()
-        rz = self._dot(r, z)
+            return x, None
         q = np.empty_like(r)
         scratch = np.empty_like(r)
-        it, rel, history = 0, 1.0, []
-        while it < maxiter:
-            it += 1
-            A.apply(p, out=q)
-            alpha = rz / self._dot(p, q)
+        z = [None]  # one buffer, allocated by the first cycle
 
-            def update(lo, hi, alpha=alpha):
+        def precondition(v, _):
+            z[0] = self.precondition(v, out=z[0])
+            return z[0]
+
+        def matvec(v):
+            return A.apply(v, out=q)
+
+        def update(alpha, p, q):
+            def part(lo, hi):
                 t = np.multiply(p[lo:hi], alpha, out=scratch[lo:hi])
                 x[lo:hi] += t
                 np.multiply(q[lo:hi], alpha, out=t)
                 r[lo:hi] -= t
                 return np.dot(r[lo:hi], r[lo:hi])
 
-            rel = float(np.sqrt(sum(A.chunks.run(update)))) / norm0
-            history.append(rel)
-            if rel <= tol or not np.isfinite(rel):
-                break
-            if it > STALL and rel > 0.5 * history[-1 - STALL]:
-                break  # stalled: the caller decides (manifill.solid.fill falls back to AMG)
-            self.precondition(r, out=z)
-            rz_new = self._dot(r, z)
-            beta = rz_new / rz
+            return float(np.sqrt(sum(A.chunks.run(part))))
 
-            def direction(lo, hi, beta=beta):
+        def direction(beta, p, z):
+            def part(lo, hi):
                 p[lo:hi] *= beta
                 p[lo:hi] += z[lo:hi]
 
-            A.chunks.run(direction)
-            rz = rz_new
-        return x, it, rel
+            A.chunks.run(part)
+
+        res = pcg(matvec, r, x, precondition=precondition, rtol=self.rtol, maxiter=self.maxiter, norm0=norm0,
+                  stall=STALL, breakdown=False, inner=self._dot, update=update, direction=direction)
+        return x, res
+
+    def solve(self, R, x0=None):
+        """Solve ``A X = R`` on the free voxels, column by column.
+
+        Parameters
+        ----------
+        R : (P,) or (P, p) numpy array
+            Right-hand side(s) on the padded grid, flat (C order, ``P = (n0 +
+            2) (n1 + 2) (n2 + 2)``), zero outside the free voxels (e.g.
+            :meth:`rhs`).
+        x0 : ignored
+            The iteration starts from zero (accepted for a uniform interface).
+
+        Returns
+        -------
+        X : (P, p) numpy array
+            Flat and padded like ``R``, zero outside the free voxels.
+        info : dict
+            ``solver``; ``iterations``, ``residuals`` (relative, reached) and
+            ``status`` (of :class:`manifill.linalg.pcg.PCGResult`), one per
+            column. A column that stalled or hit ``maxiter`` is reported, not
+            raised: the caller decides (:class:`manifill.solid.fill.VoxelFill`
+            falls back to AMG).
+        """
+        R = np.asarray(R, dtype=np.float64)
+        single = R.ndim == 1
+        R = R[:, None] if single else R
+        X = None if single else np.zeros(R.shape)
+        info = {"solver": self.name, "iterations": [], "residuals": [], "status": []}
+        for j in range(R.shape[1]):
+            x, res = self.pcg(np.ascontiguousarray(R[:, j]))
+            if single:
+                X = x[:, None]
+            else:
+                X[:, j] = x
+            info["iterations"].append(0 if res is None else res.iterations)
+            info["residuals"].append(0.0 if res is None else res.residual)
+            info["status"].append("converged" if res is None else res.status)
+        return X, info

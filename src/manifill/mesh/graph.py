@@ -19,8 +19,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .topology import EdgeIndex
+from ..tolerances import TOL
 from ..validate import check_option, unit_scale
+from .edges import EdgeIndex
 
 __all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace"]
 
@@ -40,7 +41,7 @@ def mesh_graph(V, F, *, distance="hops", index=None):
         Triangles (validated).
     distance : {'hops', 'length'}, optional
         Edge length 1, or Euclidean edge length divided by the mean edge length.
-    index : manifill.mesh.topology.EdgeIndex, optional
+    index : manifill.mesh.edges.EdgeIndex, optional
         The edge index of ``F``, when the caller has one already.
 
     Returns
@@ -72,7 +73,7 @@ def mesh_graph(V, F, *, distance="hops", index=None):
             w += (x[E[:, 0]] - x[E[:, 1]]) ** 2
         w = np.sqrt(w)
         mean = w.mean() if w.size else 1.0
-        w = np.maximum(w / (mean if mean > 0 else 1.0), 1e-12)
+        w = np.maximum(w / (mean if mean > 0 else 1.0), TOL.graph_length_floor)
     return index.matrix(w)
 
 

@@ -1,4 +1,4 @@
-"""Discrete Laplacians of a triangle mesh: uniform, cotangent, intrinsic Delaunay, robust.
+"""Discrete Laplacians of a triangle mesh (uniform, cotangent, intrinsic Delaunay, robust) and its mass matrix.
 
 All are returned as the symmetric positive semi-definite matrix ``L = D - W`` with
 ``(L x)_i = sum_j w_ij (x_i - x_j)``: a function is discretely harmonic at ``i``
@@ -32,12 +32,17 @@ Which weights when
 import numpy as np
 import scipy.sparse as sp
 
-from .topology import EdgeIndex
-from ..validate import scale_and_diagonal, as_mesh, check_option
+from ..tolerances import TOL
+from ..validate import as_mesh, check_option, scale_and_diagonal
+from .edges import EdgeIndex
+from .geometry import AREAS, cotangents, vertex_areas
 
-__all__ = ["laplacian", "cotangents", "WEIGHTS"]
+__all__ = ["laplacian", "mass_matrix", "WEIGHTS", "MASS"]
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
+
+#: The lumped mass matrices :func:`mass_matrix` builds.
+MASS = AREAS
 
 
 def _normalised(V):
@@ -52,55 +57,11 @@ def _normalised(V):
     return (V - V.mean(axis=0)) / (diag if diag > 0 else 1.0)
 
 
-def cotangents(V, F):
-    """Half cotangents of the angles of every triangle.
-
-    Parameters
-    ----------
-    V : (n, 3) numpy array
-        Vertex positions.
-    F : (m, 3) numpy array of int
-        Triangles.
-
-    Returns
-    -------
-    (m, 3) numpy array
-        Column ``k`` is ``cot(angle at corner k) / 2``: the weight that face
-        gives to the edge opposite corner ``k``. Zero for a zero-area face.
-
-    Examples
-    --------
-    >>> C = cotangents(np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
-    >>> (np.round(C, 12) + 0.0).tolist()
-    [[0.0, 0.5, 0.5]]
-    """
-    x, y, z = (np.ascontiguousarray(V[:, k]) for k in range(3))
-    i0, i1, i2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
-    # edge vectors opposite each corner: e0 = v2 - v1, e1 = v0 - v2, e2 = v1 - v0
-    def opposite(c):
-        """The three edge vectors' components along one axis, each corner gathered once."""
-        c0, c1, c2 = c[i0], c[i1], c[i2]
-        return [c2 - c1, c0 - c2, c1 - c0]
-
-    ex, ey, ez = opposite(x), opposite(y), opposite(z)
-    cx = ey[0] * ez[1] - ez[0] * ey[1]
-    cy = ez[0] * ex[1] - ex[0] * ez[1]
-    cz = ex[0] * ey[1] - ey[0] * ex[1]
-    dbl = np.sqrt(cx * cx + cy * cy + cz * cz)
-    inv = np.divide(0.5, dbl, out=np.zeros_like(dbl), where=dbl > 0)
-    C = np.empty((len(F), 3))
-    for k in range(3):
-        a, b = (k + 1) % 3, (k + 2) % 3
-        # angle at corner k lies between edges -e_b (towards b's far end) and e_a
-        C[:, k] = -(ex[a] * ex[b] + ey[a] * ey[b] + ez[a] * ez[b]) * inv
-    return C
-
-
 def _assemble(V, F, n, weights, index=None):
     """``D - W`` for ``uniform`` or ``cotan`` weights on the mesh's edge index.
 
     The weights are summed per edge and placed straight into the CSR layout of
-    :class:`~manifill.mesh.topology.EdgeIndex`; every edge stays stored, zero weights
+    :class:`~manifill.mesh.edges.EdgeIndex`; every edge stays stored, zero weights
     included, so the pattern is the mesh graph plus the diagonal.
     """
     index = EdgeIndex(F, n) if index is None else index
@@ -177,9 +138,60 @@ def laplacian(V, F, *, weights="cotan"):
 def assemble_laplacian(V, F, weights, index=None):
     """:func:`laplacian` on arrays that have passed :func:`~manifill.validate.as_mesh`.
 
-    ``index`` (an :class:`~manifill.mesh.topology.EdgeIndex` of ``F``) is reused when given.
+    ``index`` (an :class:`~manifill.mesh.edges.EdgeIndex` of ``F``) is reused when given.
     """
     n = len(V)
     if weights in ("intrinsic", "robust"):
-        return _robust(_normalised(V), F, 0.0 if weights == "intrinsic" else 1e-5)
+        return _robust(_normalised(V), F, 0.0 if weights == "intrinsic" else TOL.robust_mollify)
     return _assemble(_normalised(V), F, n, weights, index)
+
+
+def mass_matrix(V, F, *, kind="barycentric"):
+    """The lumped (diagonal) mass matrix ``M`` of a triangle mesh: the area belonging to each vertex.
+
+    With the stiffness matrix :func:`laplacian` (``weights='cotan'``) it makes the
+    linear finite elements: ``L x = M f`` is the Poisson problem, ``x' M x`` the
+    squared L2 norm of a field, ``M^-1 L`` the pointwise Laplace-Beltrami operator.
+
+    Parameters
+    ----------
+    V : (n, 3) or (n, 2) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles, any integer dtype; zero-area faces are allowed (they weigh nothing).
+    kind : {'barycentric', 'voronoi'}, optional
+        One third of every incident triangle's area, or the mixed Voronoi area
+        (see :func:`manifill.mesh.geometry.vertex_areas`).
+
+    Returns
+    -------
+    (n, n) scipy.sparse.csr_array
+        Diagonal, non-negative, summing to the total area; it scales as ``s**2``
+        when ``V`` scales by ``s``, at any scale (computed on positions of unit
+        size), and a vertex used by no face gets a stored 0.
+
+    Raises
+    ------
+    MeshError
+        If ``(V, F)`` is malformed (see :func:`manifill.validate.as_mesh`).
+    OptionError
+        If ``kind`` is not one of the names above.
+
+    See Also
+    --------
+    laplacian : the stiffness matrix.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    >>> M = mass_matrix(V, np.array([[0, 1, 2], [1, 3, 2]]))
+    >>> (M.diagonal() * 6).tolist(), round(float(M.sum()), 12)
+    ([1.0, 2.0, 2.0, 1.0], 1.0)
+    """
+    check_option("kind", kind, MASS)
+    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True)
+    n = len(V)
+    ramp = np.arange(n + 1, dtype=np.int32 if n < 2**31 - 1 else np.int64)
+    M = sp.csr_array((vertex_areas(V, F, kind=kind), ramp[:-1], ramp), shape=(n, n))
+    M.has_sorted_indices = True
+    return M

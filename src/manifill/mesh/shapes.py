@@ -129,7 +129,7 @@ def great_circle_vertices(V, F, axes=(0, 1, 2)):
     >>> bool(0 < b.size < len(V) // 4)
     True
     """
-    from .topology import adjacency
+    from .edges import adjacency
 
     A = adjacency(F, len(V)).tocoo()
     fixed = np.zeros(len(V), dtype=bool)

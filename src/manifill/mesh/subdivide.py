@@ -28,7 +28,7 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, ResourceError
 from ..memory import check_fits
-from .topology import EdgeIndex
+from .edges import EdgeIndex
 from ..validate import as_mesh
 
 __all__ = ["subdivide", "loop_matrix", "subdivided_size", "subdivide_memory", "check_subdivide"]

@@ -3,10 +3,13 @@
 With the values fixed on some voxels (usually the boundary surface D, from
 Steps 1-6), every other voxel of the solid gets the weighted average of its
 neighbours (:mod:`manifill.solid.voxels` for the neighbours and weights): the discrete
-Dirichlet problem, solved by geometric multigrid on the grid
-(:mod:`manifill.linalg.gridmg`) or, on request, by the sparse solvers of the
-surface. Tetrahedral solids use the tetrahedral Laplacians of
-:mod:`manifill.solid.tets` and the surface's solver.
+Dirichlet problem. Its sparse form goes through the solve core
+(:class:`manifill.linalg.quadratic.QuadraticSolver` on the voxel Laplacian, with
+the ``amg`` or ``direct`` backend); its matrix-free form uses the backend made for
+grids, the geometric multigrid :class:`manifill.linalg.gridmg.GridMultigrid`,
+with the stencil of :func:`manifill.solid.voxels.stencil_weights`. Tetrahedral
+solids use the tetrahedral Laplacians of :mod:`manifill.solid.tets` and the
+same core.
 
 Before a large solve the memory it needs is estimated, and a problem that would
 not fit is refused (:class:`~manifill.errors.ResourceError`) instead of being
@@ -17,14 +20,15 @@ import time
 
 import numpy as np
 
-from ..errors import SampleError, SolveError
-from ..linalg.gridmg import GridMultigrid
-from ..surface.harmonic import ON_EMPTY, HarmonicSolver
+from ..errors import SolveError
 from ..linalg.backends import SOLVERS
+from ..linalg.gridmg import GridMultigrid
+from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..memory import check_fits, lu_memory
+from ..tolerances import TOL
+from ..validate import as_indices, as_mask, as_tets, as_values, as_voxels, check_option, unit_scale
 from .tets import tet_laplacian
-from ..validate import as_indices, as_mask, as_values, as_tets, check_option, unit_scale
-from .voxels import unit_spacing, as_connectivity, as_spacing, voxel_components, voxel_laplacian
+from .voxels import as_connectivity, as_spacing, stencil_weights, unit_spacing, voxel_components, voxel_laplacian
 
 __all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory", "tet_fill_memory"]
 
@@ -69,6 +73,8 @@ def fill_memory(shape, unknowns, solver="multigrid", connectivity=6):
 #: Peak bytes per tet of :func:`tet_fill` up to its solver (the tet Laplacian's assembly: 680
 #: measured), stored entries of the Laplacian per vertex (15), and ``solver='auto'``'s limit.
 _TET_FILL_BYTES, _TET_NNZ_PER_VERTEX, _AUTO_DIRECT_MAX = 700, 15.5, 20_000
+#: Free vertices up to which ``solver='auto'`` of :func:`tet_fill` factorises (direct); AMG above.
+AUTO_DIRECT_MAX = _AUTO_DIRECT_MAX
 
 
 def tet_fill_memory(n_vertices, n_tets, n_fixed=0, solver="auto"):
@@ -109,8 +115,11 @@ class VoxelFill:
     ----------
     mask : (n0, n1, n2) bool array_like
         The solid.
-    fixed : (n0, n1, n2) bool array_like
-        Voxels whose values are given, inside ``mask``.
+    voxels : (k, 3) array_like of int
+        Grid indices of the voxels whose values are given (the samples), each
+        inside ``mask`` and listed once, in any order: :meth:`solve` takes one
+        value (or row) per voxel in this order. From a boolean mask of fixed
+        voxels: ``np.argwhere(fixed)``.
     spacing : (3,) array_like of float, optional
         Voxel size along each axis, of any magnitude (only the ratios of the
         axes change the result).
@@ -121,15 +130,21 @@ class VoxelFill:
         fastest on large grids; should it stall (a grid hierarchy that loses
         the fixed voxels, e.g. a few isolated ones), ``auto`` falls back to
         ``amg`` and says so in ``report["fallback"]``. ``amg`` and ``direct``
-        assemble the sparse Laplacian and use the surface's solvers.
+        assemble the sparse Laplacian and solve it with the solve core
+        (:class:`manifill.linalg.quadratic.QuadraticSolver`).
     on_empty : {'error', 'nan'}, optional
         A connected part of the solid with no fixed voxel: raise, or leave it NaN.
     tol : float, optional
-        Relative residual (default ``1e-10``).
+        Relative residual (default ``TOL.grid_rtol``, ``1e-10``).
     maxiter : int, optional
+        Iteration cap (default 500).
 
     Attributes
     ----------
+    voxels : (k, 3) int64 numpy array
+        The fixed voxels, as validated, in the given order.
+    fixed : (n0, n1, n2) bool numpy array
+        The same voxels as a mask.
     free : (n0, n1, n2) bool numpy array
         The voxels that are solved for.
     report : dict
@@ -137,8 +152,13 @@ class VoxelFill:
 
     Raises
     ------
-    SampleError, OptionError
-        Malformed masks, spacing or options; fixed voxels outside the mask.
+    MeshError
+        A malformed mask or spacing.
+    SampleError
+        ``voxels`` not ``(k, 3)`` integers, outside the grid or the mask, or
+        listed twice.
+    OptionError
+        An option outside its set.
     SolveError
         A connected part without fixed voxels (``on_empty='error'``).
     ResourceError
@@ -148,12 +168,13 @@ class VoxelFill:
     --------
     >>> mask = np.ones((5, 5, 5), dtype=bool)
     >>> fixed = np.zeros_like(mask); fixed[0] = fixed[-1] = True
-    >>> x = VoxelFill(mask, fixed).solve(np.indices(mask.shape)[0] * 1.0)
+    >>> voxels = np.argwhere(fixed)
+    >>> x = VoxelFill(mask, voxels).solve(voxels[:, 0] * 1.0)
     >>> x[:, 2, 2].round(10).tolist()
     [0.0, 1.0, 2.0, 3.0, 4.0]
     """
 
-    def __init__(self, mask, fixed, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
+    def __init__(self, mask, voxels, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
                  tol=None, maxiter=None):
         t0 = time.perf_counter()
         check_option("solver", solver, FILL_SOLVERS)
@@ -161,17 +182,16 @@ class VoxelFill:
         self.connectivity = as_connectivity(connectivity)
         self.spacing = as_spacing(spacing)
         self.mask = as_mask(mask)
-        self.fixed = as_mask(fixed, what="fixed", shape=self.mask.shape)
-        outside = self.fixed & ~self.mask
-        if outside.any():
-            v = tuple(int(c) for c in np.argwhere(outside)[0])
-            raise SampleError(f"{int(outside.sum())} fixed voxels lie outside the mask (e.g. voxel {v}); "
-                              f"fix only voxels of the solid")
-        self.tol = 1e-10 if tol is None else float(tol)
+        self.voxels = as_voxels(voxels, self.mask.shape, mask=self.mask)
+        # the samples in C order (that of np.argwhere(fixed)), in which the solve reads them
+        self._order = np.argsort(np.ravel_multi_index(tuple(self.voxels.T), self.mask.shape))
+        self.fixed = np.zeros(self.mask.shape, dtype=bool)
+        self.fixed[tuple(self.voxels.T)] = True
+        self.tol = TOL.grid_rtol if tol is None else float(tol)
         self.maxiter = 500 if maxiter is None else int(maxiter)
         self.solver = "multigrid" if solver == "auto" else solver
         # before anything grid-sized: at most the voxels of the mask that are not fixed are unknown
-        unknowns = int(np.count_nonzero(self.mask)) - int(np.count_nonzero(self.fixed))
+        unknowns = int(np.count_nonzero(self.mask)) - len(self.voxels)
         check_fits(fill_memory(self.mask.shape, unknowns, self.solver, self.connectivity),
                    f"the harmonic fill of {unknowns:,} voxels ({self.solver})",
                    "lower the resolution (CLI --resolution), crop the grid to the solid, or use solver='multigrid' "
@@ -197,21 +217,22 @@ class VoxelFill:
                        "empty": int(empty.sum()), "connectivity": self.connectivity, "solver": self.solver,
                        "spacing": self.spacing.tolist(), "iterations": [], "seconds": {}}
         t = time.perf_counter()
-        self._mg = self._hs = None
+        self._mg = self._quad = None
         if unknowns and self.solver == "multigrid":
             # the grid cropped to the solid: empty margins cost memory and time in every pass
             solid = self.mask & ~empty
             nz = [np.flatnonzero(solid.any(axis=tuple(b for b in range(3) if b != a))) for a in range(3)]
             self._crop = tuple(slice(int(z[0]), int(z[-1]) + 1) for z in nz)
-            self._mg = GridMultigrid(solid[self._crop], self.free[self._crop], self.spacing, self.connectivity)
+            self._mg = GridMultigrid(solid[self._crop], self.free[self._crop], self.spacing, self.connectivity,
+                                     stencil=stencil_weights, rtol=self.tol, maxiter=self.maxiter)
             self.report["levels"] = self._mg.report["levels"]
         elif unknowns:
             self._sparse(self.solver)
         self.report["seconds"] = {"check": t - t0, "setup": time.perf_counter() - t}
 
     def _sparse(self, solver):
-        """The sparse Laplacian of the solid and a surface-style solver on it (built once)."""
-        if self._hs is None:
+        """The sparse Laplacian of the solid and the solve core on it (built once)."""
+        if self._quad is None:
             solid = self.mask & ~self.empty
             unknowns = int(self.free.sum())
             check_fits(fill_memory(self.mask.shape, unknowns, solver, self.connectivity),
@@ -220,37 +241,37 @@ class VoxelFill:
             # the spacing brought to about unit size: the same solution, weights that neither
             # overflow nor underflow for voxels of 1e-150 or 1e150
             L = voxel_laplacian(solid, unit_spacing(self.spacing), self.connectivity)
-            b = np.flatnonzero(self.fixed[solid])
-            self._hs = HarmonicSolver.from_laplacian(L, b, solver=solver, tol=self._tol_arg,
-                                                     maxiter=self._maxiter_arg, symmetric_pattern=True)
+            idx = np.flatnonzero(self.fixed[solid])
+            self._quad = QuadraticSolver(L, idx, solver=solver, tol=self._tol_arg, maxiter=self._maxiter_arg,
+                                       symmetric_pattern=True, what="the voxel Laplacian")
             self._solid = solid
 
-    def solve(self, values):
-        """The harmonic fill for the given fixed values.
+    def solve(self, vals):
+        """The harmonic fill for the given values at the fixed voxels.
 
         Parameters
         ----------
-        values : array_like of float
-            Shaped like the mask (read at the fixed voxels), optionally with a
-            trailing axis of ``p`` fields; or ``(k,)`` / ``(k, p)`` with one row
-            per fixed voxel in C order (``np.argwhere(fixed)``).
+        vals : (k,) or (k, p) array_like of float
+            One value, or one row of ``p`` fields, per voxel of ``voxels``, in
+            its order.
 
         Returns
         -------
         (n0, n1, n2) or (n0, n1, n2, p) float64 numpy array
-            Equal to ``values`` at the fixed voxels, harmonic at the free ones,
+            Equal to ``vals`` at the fixed voxels, harmonic at the free ones,
             NaN outside the mask (and in parts without fixed voxels).
+
+        Raises
+        ------
+        SampleError
+            ``vals`` not one finite value (or row) per voxel.
+        SolveError
+            The multigrid did not converge (not with ``solver='auto'``, which
+            falls back to ``amg``).
         """
         t = time.perf_counter()
-        k = int(self.fixed.sum())
-        try:
-            arr = np.asarray(values, dtype=np.float64) if not isinstance(values, np.ndarray) else values
-        except (TypeError, ValueError):
-            raise SampleError("values could not be read as numbers; pass a float array shaped like the mask, "
-                              "or (k,) / (k, p) values per fixed voxel") from None
-        if arr.shape[:3] == self.mask.shape and arr.ndim in (3, 4):
-            arr = arr[self.fixed]
-        bc, squeeze = as_values(arr, k, what="values")
+        bc, squeeze = as_values(vals, len(self.voxels), what="vals")
+        bc = bc[self._order]
         out = np.full(self.mask.shape + (bc.shape[1],), np.nan)
         out[self.fixed] = bc
         iterations = []
@@ -259,8 +280,8 @@ class VoxelFill:
             if self._mg is not None:
                 g = np.zeros(self.mask.shape)
                 g[self.fixed] = bc[:, j]
-                x, it, rel = self._mg.solve(self._mg.rhs(self._mg.pad(g[self._crop])), tol=self.tol,
-                                            maxiter=self.maxiter)
+                X, info = self._mg.solve(self._mg.rhs(self._mg.pad(g[self._crop])))
+                x, it, rel = X[:, 0], info["iterations"][0], info["residuals"][0]
                 iterations.append(it)
                 if rel <= self.tol:
                     free = self.free[self._crop]
@@ -274,17 +295,17 @@ class VoxelFill:
                     x = None
                     self._sparse("amg")
                     self.report["fallback"] = f"amg (multigrid stalled at {rel:.1e} after {it} iterations)"
-            if x is None and self._hs is not None:
-                xs = self._hs.solve(bc[:, j])
+            if x is None and self._quad is not None:
+                xs = self._quad.solve(bc[:, j])
                 field = out[..., j]
                 field[self._solid] = xs
-                iterations.extend(self._hs.report.get("iterations", []))
+                iterations.extend(self._quad.report.get("iterations", []))
         self.report["iterations"] = iterations
         self.report["seconds"]["solve"] = time.perf_counter() - t
         return out[..., 0] if squeeze else out
 
 
-def harmonic_fill(mask, fixed, values, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
+def harmonic_fill(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
                   tol=None, maxiter=None):
     """Fill a voxel solid harmonically from fixed voxels (the paper's Step 8).
 
@@ -292,11 +313,12 @@ def harmonic_fill(mask, fixed, values, *, spacing=(1.0, 1.0, 1.0), connectivity=
     ----------
     mask : (n0, n1, n2) bool array_like
         The solid.
-    fixed : (n0, n1, n2) bool array_like
-        Voxels with given values (e.g. :func:`manifill.solid.voxels.boundary_voxels`).
-    values : array_like of float
-        Shaped like ``mask`` (read at ``fixed``; a trailing axis for several
-        fields), or ``(k,)`` / ``(k, p)`` per fixed voxel in C order.
+    voxels : (k, 3) array_like of int
+        Grid indices of the voxels with given values, inside ``mask``, each
+        once (e.g. ``np.argwhere(boundary_voxels(mask))``, from
+        :func:`manifill.solid.boundary.boundary_voxels`).
+    vals : (k,) or (k, p) array_like of float
+        Their values, in the order of ``voxels``: one column per field.
     spacing, connectivity, solver, on_empty, tol, maxiter
         See :class:`VoxelFill`.
 
@@ -315,15 +337,15 @@ def harmonic_fill(mask, fixed, values, *, spacing=(1.0, 1.0, 1.0), connectivity=
     >>> mask = np.ones((4, 4, 9), dtype=bool)
     >>> fixed = np.zeros_like(mask); fixed[..., 0] = fixed[..., -1] = True
     >>> z = np.indices(mask.shape)[2] * 2.5
-    >>> x = harmonic_fill(mask, fixed, z, spacing=(1, 1, 2.5))
+    >>> x = harmonic_fill(mask, np.argwhere(fixed), z[fixed], spacing=(1, 1, 2.5))
     >>> bool(np.allclose(x, z))
     True
     """
-    return VoxelFill(mask, fixed, spacing=spacing, connectivity=connectivity, solver=solver, on_empty=on_empty,
-                     tol=tol, maxiter=maxiter).solve(values)
+    return VoxelFill(mask, voxels, spacing=spacing, connectivity=connectivity, solver=solver, on_empty=on_empty,
+                     tol=tol, maxiter=maxiter).solve(vals)
 
 
-def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", tol=None, maxiter=None):
+def tet_fill(V, T, idx, vals, *, weights="cotan", solver="auto", on_empty="error", tol=None, maxiter=None):
     """Fill a tetrahedral solid harmonically from fixed vertices.
 
     Parameters
@@ -332,15 +354,16 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
         Vertex positions.
     T : (m, 4) array_like of int
         Tetrahedra.
-    b : (k,) array_like of int
+    idx : (k,) array_like of int
         Fixed vertices (e.g. the vertices of :func:`manifill.solid.tets.boundary_faces`).
-    bc : (k,) or (k, p) array_like of float
+    vals : (k,) or (k, p) array_like of float
         Their values.
     weights : {'cotan', 'uniform'}, optional
         The finite-element stiffness (reproduces linear functions on any tet
         mesh) or 1 per edge (the paper's average; keeps the maximum principle).
     solver, on_empty, tol, maxiter
-        As :class:`manifill.HarmonicSolver`.
+        As :class:`manifill.HarmonicSolver` (the fill is the solve core,
+        :class:`manifill.linalg.quadratic.QuadraticSolver`, on the tet Laplacian).
 
     Returns
     -------
@@ -355,7 +378,7 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
     Examples
     --------
     >>> from manifill.mesh.shapes import icosphere
-    >>> from manifill.solid.tets import tetrahedralize
+    >>> from manifill.solid.tetrahedralize import tetrahedralize
     >>> V, F = icosphere(2)
     >>> TV, TT = tetrahedralize(V, F)
     >>> x = tet_fill(TV, TT, np.arange(len(V)), V[:, 0])
@@ -363,9 +386,9 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
     True
     """
     V, T = as_tets(V, T, allow_degenerate=weights == "uniform")
-    b = as_indices(b, len(V))
+    idx = as_indices(idx, len(V), what="idx")
     check_option("solver", solver, SOLVERS)
-    n_fixed = len(np.unique(b))
+    n_fixed = len(np.unique(idx))
     free = len(V) - n_fixed
     coarser = "a coarser tetrahedral mesh (CLI: raise --max-volume)"
     factorised = solver == "direct" or (solver == "auto" and free <= _AUTO_DIRECT_MAX)
@@ -375,5 +398,5 @@ def tet_fill(V, T, b, bc, *, weights="cotan", solver="auto", on_empty="error", t
     # the stiffness has units of length: on V / s (s a power of two, 1 for the usual sizes) it is the
     # same matrix divided by s, exactly, with the same solution and entries of about unit size
     L = tet_laplacian(V / unit_scale(V), T, weights=weights)
-    return HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
-                                         symmetric_pattern=True).solve(bc)
+    return QuadraticSolver(L, idx, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
+                           symmetric_pattern=True, what="the tet Laplacian").solve(vals)

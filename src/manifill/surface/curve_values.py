@@ -1,6 +1,6 @@
 """Step 4 of the paper: a value at every curve vertex, from the samples on the curves.
 
-The curve network of :mod:`manifill.partition` is a graph of its own (consecutive
+The curve network of :mod:`manifill.surface.partition` is a graph of its own (consecutive
 path vertices are joined). Two ways to fill it:
 
 ``gvf``
@@ -30,14 +30,17 @@ path vertices are joined). Two ways to fill it:
     mean of their values.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 
 from .gradual import gvf
 from ..linalg.backends import make_linear_solver
+from ..tolerances import TOL
 from ..validate import scale_of, check_option, unit_scale
 
-__all__ = ["CURVE_VALUES", "curve_graph", "curve_values", "vertex_normals"]
+__all__ = ["CURVE_VALUES", "CurveValues", "values_on_curves", "curve_graph", "curve_values", "vertex_normals"]
 
 CURVE_VALUES = ("hermite", "linear", "gvf")
 
@@ -50,7 +53,7 @@ def curve_graph(V, edges, n, *, distance="length"):
     V : (n, 3) numpy array
         Vertex positions.
     edges : (e, 2) numpy array of int
-        Unique curve edges (:meth:`manifill.partition.Partition.curve_edges`).
+        Unique curve edges (:meth:`manifill.surface.partition.Partition.curve_edges`).
     n : int
         Number of mesh vertices.
     distance : {'length', 'hops'}, optional
@@ -67,7 +70,7 @@ def curve_graph(V, edges, n, *, distance="length"):
     else:
         D = V[i] - V[j]
         sc = unit_scale(D)  # a power of two: the squares in the norm neither overflow nor underflow
-        w = np.maximum(np.linalg.norm(D if sc == 1.0 else D * (1.0 / sc), axis=1), 1e-300) * sc
+        w = np.maximum(np.linalg.norm(D if sc == 1.0 else D * (1.0 / sc), axis=1), TOL.tiny) * sc
     return sp.csr_array((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
 
 
@@ -139,7 +142,7 @@ def _gradients(V, normals, ends, idx, vals):
     # a tangent frame at every sample
     ref = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     e1 = np.cross(nrm, ref)
-    e1 /= np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-300)
+    e1 /= np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), TOL.tiny)
     e2 = np.cross(nrm, e1)
     m = int(count.max()) if k else 0
     d = V[idx[nbrs]] - V[idx[rows]]
@@ -149,7 +152,7 @@ def _gradients(V, normals, ends, idx, vals):
     Y = np.zeros((k, m, p))
     Y[rows, slot] = vals[nbrs] - vals[rows]
     w = np.zeros((k, m))
-    w[rows, slot] = 1.0 / np.maximum(np.hypot(D[rows, slot, 0], D[rows, slot, 1]), 1e-300)
+    w[rows, slot] = 1.0 / np.maximum(np.hypot(D[rows, slot, 0], D[rows, slot, 1]), TOL.tiny)
     coef = np.zeros((k, 2, p))
     done = np.zeros(k, dtype=bool)
     quad = np.flatnonzero(count >= 8)
@@ -158,14 +161,14 @@ def _gradients(V, normals, ends, idx, vals):
         Q = np.concatenate([Dq, 0.5 * Dq[..., :1] ** 2, Dq[..., :1] * Dq[..., 1:], 0.5 * Dq[..., 1:] ** 2], axis=2)
         Qw = Q * w[quad][..., None]
         U, S, Vt = np.linalg.svd(Qw, full_matrices=False)
-        good = S[:, -1] * 1e8 > S[:, 0]
+        good = S[:, -1] * (1 / TOL.gradient_rcond) > S[:, 0]
         sol = np.einsum("kji,kj,klj,klp->kip", Vt, 1.0 / np.where(S > 0, S, np.inf), U, Y[quad] * w[quad][..., None])
         coef[quad[good]] = sol[good, :2]
         done[quad[good]] = True
     for i in np.flatnonzero(~done & (count >= 2)):
         c = count[i]
         # minimum-norm when the neighbours line up: exact along that line
-        coef[i] = np.linalg.lstsq(D[i, :c] * w[i, :c, None], Y[i, :c] * w[i, :c, None], rcond=1e-8)[0]
+        coef[i] = np.linalg.lstsq(D[i, :c] * w[i, :c, None], Y[i, :c] * w[i, :c, None], rcond=TOL.gradient_rcond)[0]
         done[i] = True
     grads = e1[:, :, None] * coef[:, None, 0, :] + e2[:, :, None] * coef[:, None, 1, :]
     return grads, done
@@ -345,3 +348,77 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
         solver = make_linear_solver(L[fi][:, fi], "direct")
         out[fi] = solver.solve(-(L[fi][:, pos] @ vals2))[0]
     return cv, out[:, 0] if squeeze else out
+
+
+@dataclass
+class CurveValues:
+    """The result of Step 4 (:func:`values_on_curves`): fixed values for the harmonic fill.
+
+    Unpacks as ``idx, vals = cv``.
+
+    Attributes
+    ----------
+    idx : (c,) int64 numpy array
+        The curve vertices, sorted (every sample among them).
+    vals : (c, p) numpy array
+        Their values, one column per field; the samples' own at the samples.
+    method : str
+        How they were drawn (one of :data:`CURVE_VALUES`).
+    """
+
+    idx: np.ndarray
+    vals: np.ndarray
+    method: str
+
+    def __iter__(self):
+        return iter((self.idx, self.vals))
+
+
+def values_on_curves(surface, part, idx, vals, *, method="hermite", checks=None):
+    """Step 4 on a partition: a value at every vertex of its curves, all fields at once.
+
+    Parameters
+    ----------
+    surface : Surface
+        The surface (:class:`manifill.surface.surface.Surface`): ``V``, and ``F``
+        or ``normals`` for ``hermite``.
+    part : Partition
+        Steps 2-3 (:func:`manifill.surface.partition.partition`) through ``idx``.
+    idx : (k,) int64 numpy array
+        Sample vertices, sorted and unique.
+    vals : (k, p) numpy array
+        Sample values, one column per field.
+    method : {'hermite', 'linear', 'gvf'}, optional
+        See the module docstring.
+    checks : list of p GradualCheck, optional
+        Step 1 per field (:func:`manifill.surface.gradual.check_gradual`); ``gvf``
+        needs them for the levels.
+
+    Returns
+    -------
+    CurveValues
+
+    Raises
+    ------
+    SampleError
+        ``gvf`` with samples that break the gradual variation condition.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> from manifill.surface.partition import partition
+    >>> from manifill.surface.surface import Surface
+    >>> V, F = icosphere(2)
+    >>> s, idx = Surface.from_mesh(V, F), np.array([0, 10, 50, 90, 120])
+    >>> cv = values_on_curves(s, partition(V, F, idx, s.G), idx, V[idx, :1])
+    >>> bool(np.isin(idx, cv.idx).all()), cv.vals.shape[1]
+    (True, 1)
+    """
+    check_option("curve_values", method, CURVE_VALUES)
+    if method == "gvf":
+        cols = [curve_values(surface.V, part.curve_edges(), idx, vals[:, j], method="gvf",
+                             levels=c.levels, level=c.level) for j, c in enumerate(checks)]
+        return CurveValues(cols[0][0], np.column_stack([cv for _, cv in cols]), method)
+    b, bc = curve_values(surface.V, part.curve_edges(), idx, vals, method=method, F=surface.F,
+                         curves=part.curves, ends=part.ends, normals=surface.normals)
+    return CurveValues(b, bc, method)

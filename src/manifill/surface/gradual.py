@@ -23,17 +23,12 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError
 from ..mesh.graph import offset_distances, voronoi_pairs
+from ..tolerances import TOL
 from ..validate import check_option
 
-__all__ = [
-    "lipschitz_constant",
-    "GradualCheck",
-    "check_gradual",
-    "violation_message",
-    "gvf",
-    "lipschitz_extension",
-    "EXTENSIONS",
-]
+__all__ = ["lipschitz_constant", "GradualCheck", "check_gradual", "violation_message", "gvf", "lipschitz_extension",
+           "EXTENSIONS"]
+
 
 def lipschitz_constant(G, idx, vals, *, start=None):
     """Smallest ``K`` with ``|f_p - f_q| <= K d(p, q)`` for all samples, exactly.
@@ -96,14 +91,14 @@ def lipschitz_constant(G, idx, vals, *, start=None):
         passes += 1
         U, root, _ = offset_distances(G, idx, vals / K)
         U = U[idx] * K
-        viol = np.flatnonzero(U < vals - 1e-12 * max(1.0, float(np.abs(vals).max())))
+        viol = np.flatnonzero(U < vals - TOL.lipschitz_rtol * max(1.0, float(np.abs(vals).max())))
         if viol.size == 0:
             return K, pair, passes
         q = root[idx[viol]]
         d = (U[viol] - vals[q]) / K
-        ratio = (vals[viol] - vals[q]) / np.maximum(d, 1e-300)
+        ratio = (vals[viol] - vals[q]) / np.maximum(d, TOL.tiny)
         j = int(np.argmax(ratio))
-        if ratio[j] <= K * (1 + 1e-12):
+        if ratio[j] <= K * (1 + TOL.lipschitz_rtol):
             return K, pair, passes
         K, pair = float(ratio[j]), (int(viol[j]), int(q[j]))
 
@@ -146,12 +141,48 @@ class GradualCheck:
     distance: str
     level_error: float
 
+    def worst(self, k=None):
+        """The violations, most negative slack ``d(p, q) - |i_p - i_q|`` first.
+
+        Parameters
+        ----------
+        k : int, optional
+            How many rows (all by default).
+
+        Returns
+        -------
+        (min(k, v), 4) numpy array
+            Rows of :attr:`violations` ordered by
+            ``numpy.argsort(violations[:, 2] - violations[:, 3])``.
+
+        Examples
+        --------
+        >>> from manifill.mesh.shapes import grid
+        >>> from manifill.mesh.graph import mesh_graph
+        >>> G = mesh_graph(*grid(5))
+        >>> c = check_gradual(G, np.array([0, 1, 24]), np.array([0.0, 3.0, 4.0]), levels=5)
+        >>> c.worst(1).tolist()
+        [[1.0, 0.0, 1.0, 3.0]]
+        """
+        rows = self.violations[np.argsort(self.violations[:, 2] - self.violations[:, 3])]
+        return rows if k is None else rows[:k]
+
+    def summary(self):
+        """The check as a small dict (a reconstruction's ``report['check']`` entries).
+
+        ``holds``, ``lipschitz_<distance>``, ``step``, ``levels`` (count), ``violations``
+        (count), ``level_error``.
+        """
+        return {"holds": self.holds, f"lipschitz_{self.distance}": self.lipschitz, "step": self.step,
+                "levels": int(self.levels.size), "violations": int(len(self.violations)),
+                "level_error": self.level_error}
+
 
 def _violations(G, idx, level):
     """Samples ``p`` with ``U(p) < i_p``, each with its worst partner."""
     U, root, _ = offset_distances(G, idx, level.astype(np.float64))
     U = U[idx]
-    bad = np.flatnonzero(U < level - 1e-9)
+    bad = np.flatnonzero(U < level - TOL.level_slack)
     q = root[idx[bad]]
     d = U[bad] - level[q]
     return np.column_stack([idx[bad], idx[q], d, np.abs(level[bad] - level[q])])
@@ -174,7 +205,7 @@ def _uniform(vals, step):
     return levels, np.floor((vals - lo) / step + 0.5).astype(np.int64)
 
 
-def check_gradual(G, idx, vals, *, levels=None, distance="hops", start=None):
+def check_gradual(G, idx, vals, *, levels=None, distance=None, start=None):
     """Choose value levels and check the gradual variation condition.
 
     Parameters
@@ -193,8 +224,10 @@ def check_gradual(G, idx, vals, *, levels=None, distance="hops", start=None):
         unless a value sits on a rounding tie); an ``int``: that
         many uniform levels from the smallest to the largest value; an array:
         these levels (strictly increasing), each sample going to the nearest.
-    distance : {'hops', 'length'}, optional
-        The distance ``G`` measures, for the report.
+    distance : {'hops', 'length'} or None, optional
+        The distance ``G`` measures (for the report; with ``hops`` the levels
+        need no verifying pass). ``None``: read from ``G``, ``hops`` when every
+        edge has length 1.
     start : tuple, optional
         A lower bound of the Lipschitz constant (see :func:`lipschitz_constant`).
 
@@ -219,6 +252,9 @@ def check_gradual(G, idx, vals, *, levels=None, distance="hops", start=None):
     >>> check_gradual(G, np.array([0, 1]), np.array([0.0, 3.0]), levels=4).violations.tolist()
     [[1.0, 0.0, 1.0, 3.0]]
     """
+    if distance is None:
+        distance = "length" if G.nnz and not np.all(sp.csr_array(G).data == 1.0) else "hops"
+    check_option("distance", distance, ("hops", "length"))
     idx = np.asarray(idx, dtype=np.int64)
     vals = np.asarray(vals, dtype=np.float64)
     K, pair, _ = lipschitz_constant(G, idx, vals, start=start)
@@ -232,7 +268,7 @@ def check_gradual(G, idx, vals, *, levels=None, distance="hops", start=None):
             for _ in range(60):
                 A, level = _uniform(vals, step)
                 x = (vals - A[0]) / step
-                if distance == "hops" and np.all(np.abs(x - np.floor(x) - 0.5) > 1e-6):
+                if distance == "hops" and np.all(np.abs(x - np.floor(x) - 0.5) > TOL.level_tie):
                     # whole-number distances: |a - b| <= d implies |round(a) - round(b)| <= d, so
                     # the levels hold without a verifying pass unless a value sits on a rounding tie
                     viol = np.empty((0, 4))
@@ -284,12 +320,11 @@ def violation_message(check, limit=3):
     -------
     str
     """
-    rows = check.violations[np.argsort(check.violations[:, 2] - check.violations[:, 3])][:limit]
+    rows = check.worst(limit)
     pairs = "; ".join(f"vertices {int(p)} and {int(q)} are {d:g} apart but {int(k)} levels apart"
                       for p, q, d, k in rows)
     return (f"{len(check.violations)} samples break the gradual variation condition ({pairs}); "
             f"use fewer levels (levels=None picks a step that works) or check those samples")
-
 
 
 def _require_hops(G):
@@ -358,7 +393,7 @@ def gvf(G, idx, level, *, method="envelope"):
         L = -offset_distances(G, idx, -level.astype(np.float64))[0]
         out = np.full(G.shape[0], -1, dtype=np.int64)
         ok = np.isfinite(U)
-        out[ok] = np.floor((U[ok] + L[ok]) / 2 + 1e-9).astype(np.int64)
+        out[ok] = np.floor((U[ok] + L[ok]) / 2 + TOL.level_slack).astype(np.int64)
         return out
     return _gvf_chen(G, idx, level)
 
@@ -397,7 +432,7 @@ def _gvf_chen(G, idx, level):
     for x in order:
         nb = G.indices[G.indptr[x]:G.indptr[x + 1]]
         fitted = out[nb][out[nb] >= 0]
-        lo, hi = int(np.ceil(L[x] - 1e-9)), int(np.floor(U[x] + 1e-9))
+        lo, hi = int(np.ceil(L[x] - TOL.level_slack)), int(np.floor(U[x] + TOL.level_slack))
         out[x] = int(np.clip(np.round(fitted.mean()), lo, hi))
         d = csgraph.shortest_path(G, unweighted=True, indices=x)
         U = np.minimum(U, out[x] + d)

@@ -80,6 +80,38 @@ class Partition:
             self._edges = self._curve_edges()
         return self._edges
 
+    def steepest(self, idx, vals):
+        """Per field, the steepest curve: a lower bound of Step 1's Lipschitz constant in hops.
+
+        A curve of ``h`` edges joins two samples, so their hop distance is at most
+        ``h`` and ``|f_a - f_b| / h`` bounds the constant from below; Step 1
+        (:func:`manifill.surface.gradual.check_gradual`, ``start=``) starts there
+        and saves a shortest-path pass.
+
+        Parameters
+        ----------
+        idx : (k,) int64 numpy array
+            The sample vertices (sorted, unique) the partition was drawn through.
+        vals : (k, p) numpy array
+            Their values, one column per field.
+
+        Returns
+        -------
+        list of p (K0, (a, b)) tuples, or of None without curves
+            ``K0`` the largest ratio, ``a, b`` positions in ``idx`` of its ends.
+        """
+        if not self.curves:
+            return [None] * vals.shape[1]
+        pos = np.searchsorted(idx, self.ends)
+        hops = np.array([len(c) - 1 for c in self.curves], dtype=np.float64)
+        ok = hops > 0
+        starts = []
+        for j in range(vals.shape[1]):
+            ratio = np.where(ok, np.abs(vals[pos[:, 0], j] - vals[pos[:, 1], j]) / np.maximum(hops, 1), 0.0)
+            best = int(np.argmax(ratio))
+            starts.append((float(ratio[best]), (int(pos[best, 0]), int(pos[best, 1]))))
+        return starts
+
     def _curve_edges(self):
         if not self.curves:
             return np.empty((0, 2), dtype=np.int64)

@@ -1,12 +1,23 @@
-"""The paper's reconstruction on a surface, Steps 1-6, as one call.
+"""The paper's reconstruction on a surface, Steps 1-6, composed of its public steps.
 
-``gvf-harmonic`` (the default) runs the whole pipeline: check the gradual variation
-condition and choose levels (Step 1, :mod:`manifill.surface.gradual`); cut the surface by
-curves through every sample (Steps 2-3, :mod:`manifill.partition`); give every
-curve vertex a value (Step 4, :mod:`manifill.surface.curve_values`); fill every patch
-harmonically with the curve values fixed (Steps 5-6, :mod:`manifill.harmonic`).
-``harmonic`` fixes only the samples (the naive baseline) and ``gvf`` stops at the
-gradually varied fit of the whole surface.
+:func:`reconstruct` validates a mesh and samples, builds the
+:class:`~manifill.surface.surface.Surface` (:mod:`manifill.surface.surface`) and runs
+:func:`reconstruct_surface`, which composes the steps, each a public function:
+
+1. Steps 2-3, :func:`manifill.surface.partition.partition`: curves through every
+   sample cut the surface into patches (a :class:`~manifill.surface.partition.Partition`;
+   run first, since its curves bound Step 1's Lipschitz constant from below).
+2. Step 1, :func:`manifill.surface.gradual.check_gradual`: levels and the gradual
+   variation condition, per field (a :class:`~manifill.surface.gradual.GradualCheck`).
+3. Step 4, :func:`manifill.surface.curve_values.values_on_curves`: a value at every
+   curve vertex (a :class:`~manifill.surface.curve_values.CurveValues`).
+4. Steps 5-6, :func:`manifill.surface.fill.fill_patches`: the harmonic fill of every
+   patch with the curve values fixed.
+
+``gvf-harmonic`` (the default) runs them all; ``harmonic`` fixes only the samples (the
+naive baseline: Step 1, then Steps 5-6); ``gvf`` stops at the gradually varied fit of
+the whole surface (:func:`manifill.surface.fill.gvf_fill`). The result is a
+:class:`Reconstruction`, of the result family of :mod:`manifill.results`.
 """
 
 import time
@@ -14,29 +25,29 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .curve_values import CURVE_VALUES
-from .curve_values import curve_values as _curve_values
 from ..errors import SampleError
-from ..mesh.graph import DISTANCES, mesh_graph
-from .gradual import check_gradual, gvf, violation_message
-from .harmonic import ON_EMPTY, HarmonicSolver
-from ..mesh.laplacian import WEIGHTS, assemble_laplacian
+from ..linalg.backends import ITERATIONS, SOLVERS
+from ..mesh.graph import DISTANCES
+from ..mesh.laplacian import WEIGHTS
+from ..progress import tick
+from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, Result
+from ..validate import as_mesh, as_samples, check_option
+from .curve_values import CURVE_VALUES, values_on_curves
+from .fill import INITS, fill_patches, gvf_fill, start_values
+from .gradual import check_gradual, violation_message
+from .harmonic import ON_EMPTY
 from .partition import PARTITIONS
 from .partition import partition as _partition
-from ..progress import tick
-from ..linalg.backends import ITERATIONS, SOLVERS
-from ..mesh.topology import EdgeIndex
-from ..validate import as_mesh, as_samples, check_option
+from .surface import Surface
 
-__all__ = ["METHODS", "INITS", "Reconstruction", "reconstruct"]
+__all__ = ["METHODS", "INITS", "Reconstruction", "reconstruct", "reconstruct_surface", "check_options"]
 
 METHODS = ("gvf-harmonic", "harmonic", "gvf")
-INITS = ("gvf", "random", "mean")
 
 
 @dataclass
-class Reconstruction:
-    """The result of :func:`reconstruct`.
+class Reconstruction(Result):
+    """The result of :func:`reconstruct` and :func:`reconstruct_surface` (a :class:`manifill.results.Result`).
 
     Attributes
     ----------
@@ -73,6 +84,26 @@ class Reconstruction:
     F: np.ndarray = None
     idx: np.ndarray = None
 
+    @property
+    def sample_mask(self):
+        """(n,) bool numpy array: True at the sample vertices."""
+        sample = np.zeros(len(self.values), dtype=bool)
+        sample[self.idx] = True
+        return sample
+
+    def masks(self):
+        """``sample_mask``, ``curve_mask`` (:attr:`on_curve`) and ``patch_label`` (:attr:`components`).
+
+        Examples
+        --------
+        >>> from manifill.mesh.shapes import icosphere
+        >>> V, F = icosphere(2)
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> list(r.masks()), int(r.masks()["sample_mask"].sum())
+        (['sample_mask', 'curve_mask', 'patch_label'], 5)
+        """
+        return {SAMPLE_MASK: self.sample_mask, CURVE_MASK: self.on_curve, PATCH_LABEL: self.components}
+
     def point_data(self, names=None):
         """The fields and manifill's masks, named as in every output file.
 
@@ -86,14 +117,7 @@ class Reconstruction:
         dict of str to (n,) numpy array
             The fields, ``sample_mask``, ``curve_mask`` and ``patch_label``.
         """
-        from ..io.registry import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK
-        from .samples import field_names
-
-        X = self.values if self.values.ndim == 2 else self.values[:, None]
-        data = dict(zip(field_names(names, X.shape[1]), X.T))
-        sample = np.zeros(len(X), dtype=bool)
-        sample[self.idx] = True
-        return {**data, SAMPLE_MASK: sample, CURVE_MASK: self.on_curve, PATCH_LABEL: self.components}
+        return super().point_data(names)
 
     def to_pyvista(self, names=None):
         """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).
@@ -138,7 +162,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         gradually varied fit of the whole surface (every vertex but the
         samples on a level).
     partition : {'delaunay', 'cycle', 'tree'}, optional
-        How the curves are drawn (:mod:`manifill.partition`).
+        How the curves are drawn (:mod:`manifill.surface.partition`).
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
         Laplacian weights of the harmonic fill.
     distance : {'length', 'hops'}, optional
@@ -195,7 +219,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     (True, 'delaunay')
     """
     t0 = time.perf_counter()
-    _check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
+    check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
     V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
     n = len(V)
     idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
@@ -203,17 +227,35 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
 
     tick(progress, "graph")
     t = time.perf_counter()
-    index = EdgeIndex(F, n)
-    G_hops = mesh_graph(V, F, distance="hops", index=index)
-    G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
+    surface = Surface.from_mesh(V, F, distance=distance, check=False)
     seconds["graph"] = time.perf_counter() - t
-    surface = _Surface(V, G_hops, G, lambda w: assemble_laplacian(V, F, w, index), F=F)
-    return _pipeline(surface, idx, vals, squeeze, seconds, t0, method=method, partition=partition, weights=weights,
-                     levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
-                     iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, progress=progress)
+    r = reconstruct_surface(surface, idx, vals, method=method, partition=partition, weights=weights,
+                            levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
+                            iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, progress=progress,
+                            seconds=seconds)
+    if squeeze:
+        r.values = r.values[:, 0]
+    seconds["total"] = time.perf_counter() - t0
+    return r
 
 
-def _check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init):
+def check_options(method="gvf-harmonic", partition="delaunay", weights="cotan", distance="length",
+                  curve_values="hermite", solver="auto", on_empty="error", iteration="gauss-seidel", init="gvf"):
+    """Check the options of :func:`reconstruct` against their closed sets (defaults as there).
+
+    Raises
+    ------
+    OptionError
+        An option outside its set; the message lists the allowed values.
+
+    Examples
+    --------
+    >>> check_options(method="gvf", distance="hops")
+    >>> check_options(method="fast")
+    Traceback (most recent call last):
+    ...
+    manifill.errors.OptionError: method='fast' is not one of 'gvf-harmonic', 'harmonic', 'gvf'; pass one of those
+    """
     check_option("method", method, METHODS)
     check_option("partition", partition, PARTITIONS)
     check_option("weights", weights, WEIGHTS)
@@ -225,28 +267,54 @@ def _check_options(method, partition, weights, distance, curve_values, solver, o
     check_option("init", init, INITS)
 
 
-@dataclass
-class _Surface:
-    """What Steps 1-6 need of a surface: positions, the two graphs, a Laplacian, normals.
+def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
+                        levels=None, curve_values="hermite", solver="auto", on_empty="error",
+                        iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, progress=None,
+                        seconds=None):
+    """Steps 1-6 on a Surface and validated samples.
 
-    A triangle mesh gives all of them from ``(V, F)``; a digital surface (the
-    boundary voxels of a solid) gives graphs from voxel adjacency and normals
-    from the solid, and has no triangles (``F`` is None).
+    Parameters
+    ----------
+    surface : Surface
+        A mesh (:meth:`manifill.surface.surface.Surface.from_mesh`) or a digital surface.
+    idx : (k,) int64 numpy array
+        Sample vertices, sorted and unique (as :func:`manifill.validate.as_samples` returns them).
+    vals : (k, p) float64 numpy array
+        Sample values, one column per field (always two-dimensional).
+    method, partition, weights, levels, curve_values, solver, on_empty, iteration, init, seed, tol, maxiter, progress
+        As for :func:`reconstruct`.
+    seconds : dict, optional
+        Timings the caller measured before (e.g. ``validate``, ``graph``). The
+        result's ``report['seconds']`` is this dict, filled in place with one
+        entry per step run and ``total``: the given entries' sum plus the time
+        spent here.
+
+    Returns
+    -------
+    Reconstruction
+        With ``values`` of shape (n, p), never squeezed: a caller with one
+        field given as a (k,) array takes ``values[:, 0]`` (as :func:`reconstruct` does).
+
+    Raises
+    ------
+    OptionError, SampleError, SolveError
+        As for :func:`reconstruct`.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> from manifill.surface.surface import Surface
+    >>> V, F = icosphere(2)
+    >>> idx = np.array([0, 10, 50, 90, 120])
+    >>> r = reconstruct_surface(Surface.from_mesh(V, F), idx, V[idx, :1] * 2.0)
+    >>> r.values.shape, bool(np.allclose(r.values[idx, 0], V[idx, 0] * 2.0))
+    ((162, 1), True)
     """
-
-    V: np.ndarray
-    G_hops: object
-    G: object
-    laplacian: object
-    F: np.ndarray = None
-    normals: np.ndarray = None
-
-
-def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, weights, levels, curve_values,
-              solver, on_empty, iteration, init, seed, tol, maxiter, progress=None):
-    """Steps 1-6 on a validated surface and validated samples."""
-    V, F, G_hops, G = surface.V, surface.F, surface.G_hops, surface.G
-    n = len(V)
+    t0 = time.perf_counter()
+    seconds = {} if seconds is None else seconds
+    before = sum(seconds.values())
+    check_options(method, partition, weights, "length", curve_values, solver, on_empty, iteration, init)
+    n = len(surface.V)
     report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
     # Steps 2-3 first when they run: the hop length of every curve bounds the Lipschitz
@@ -255,42 +323,21 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
     if method == "gvf-harmonic":
         tick(progress, "partition")
         t = time.perf_counter()
-        part = _partition(V, F, idx, G, method=partition)
+        part = _partition(surface.V, surface.F, idx, surface.G, method=partition)
         seconds["partition"] = time.perf_counter() - t
-        if part.curves:
-            pos = np.searchsorted(idx, part.ends)
-            hops = np.array([len(c) - 1 for c in part.curves], dtype=np.float64)
-            ok = hops > 0
-            for j in range(vals.shape[1]):
-                ratio = np.where(ok, np.abs(vals[pos[:, 0], j] - vals[pos[:, 1], j]) / np.maximum(hops, 1), 0.0)
-                best = int(np.argmax(ratio))
-                starts[j] = (float(ratio[best]), (int(pos[best, 0]), int(pos[best, 1])))
+        starts = part.steepest(idx, vals)
 
     # Step 1: levels and the gradual variation condition (hop distance), per field
     tick(progress, "check")
     t = time.perf_counter()
-    checks = [check_gradual(G_hops, idx, vals[:, j], levels=levels, distance="hops", start=starts[j])
+    checks = [check_gradual(surface.G_hops, idx, vals[:, j], levels=levels, distance="hops", start=starts[j])
               for j in range(vals.shape[1])]
-    strict = method == "gvf" or curve_values == "gvf"
-    for c in checks:
-        if strict and not c.holds:
-            raise SampleError(violation_message(c))
-    report["check"] = [
-        {"holds": c.holds, "lipschitz_hops": c.lipschitz, "step": c.step, "levels": int(c.levels.size),
-         "violations": int(len(c.violations)), "level_error": c.level_error}
-        for c in checks
-    ]
+    if method == "gvf" or curve_values == "gvf":
+        for c in checks:
+            if not c.holds:
+                raise SampleError(violation_message(c))
+    report["check"] = [c.summary() for c in checks]
     seconds["check"] = time.perf_counter() - t
-    levels_out = [c.levels for c in checks]
-
-    def fit_gvf():
-        """GVF of the whole surface: levels everywhere, the samples' own values at the samples."""
-        X = np.empty((n, vals.shape[1]))
-        for j, c in enumerate(checks):
-            lev = gvf(G_hops, idx, c.level)
-            X[:, j] = np.where(lev >= 0, c.levels[np.maximum(lev, 0)], np.nan)
-        X[idx] = vals
-        return X
 
     curves, components = [], np.zeros(n, dtype=np.int64)
     fixed = np.zeros(n, dtype=bool)
@@ -298,68 +345,30 @@ def _pipeline(surface, idx, vals, squeeze, seconds, t0, *, method, partition, we
     if method == "gvf":
         tick(progress, "gvf")
         t = time.perf_counter()
-        X = fit_gvf()
+        values = gvf_fill(surface, idx, vals, checks, on_empty=on_empty)
         seconds["gvf"] = time.perf_counter() - t
-        empty = np.isnan(X[:, 0])
-        if empty.any() and on_empty == "error":
-            from ..errors import SolveError
-
-            v = int(np.flatnonzero(empty)[0])
-            raise SolveError(
-                f"{int(empty.sum())} vertices (e.g. vertex {v}) lie in components without samples, so their "
-                f"values are undetermined; add a sample there, or pass on_empty='nan' to leave them NaN")
-        values = X
     else:
+        b, bc = idx, vals
         if method == "gvf-harmonic":
             # Step 4: values on the curves of the partition (Steps 2-3, above)
             report["partition"] = part.report
             curves, components, fixed = part.curves, part.labels, part.on_curve.copy()
             tick(progress, "curve values")
             t = time.perf_counter()
-            if curve_values == "gvf":
-                cols = [_curve_values(V, part.curve_edges(), idx, vals[:, j], method="gvf",
-                                      levels=c.levels, level=c.level) for j, c in enumerate(checks)]
-                b, bc = cols[0][0], np.column_stack([cv for _, cv in cols])
-            else:
-                b, bc = _curve_values(V, part.curve_edges(), idx, vals, method=curve_values, F=F,
-                                      curves=part.curves, ends=part.ends, normals=surface.normals)
+            b, bc = values_on_curves(surface, part, idx, vals, method=curve_values, checks=checks)
             seconds["curve_values"] = time.perf_counter() - t
-        else:
-            b, bc = idx, vals
         # Steps 5-6: harmonic fill of every patch
         tick(progress, "harmonic fill")
         t = time.perf_counter()
-        L = surface.laplacian(weights)
-        hs = HarmonicSolver.from_laplacian(L, b, solver=solver, on_empty=on_empty, iteration=iteration,
-                                           tol=tol, maxiter=maxiter,
-                                           symmetric_pattern=weights in ("uniform", "cotan"))
-        hs.report["weights"] = weights
-        x0 = None
-        if hs.report["solver"] == "iterate":
-            if init == "gvf":
-                x0 = fit_gvf()
-            elif init == "random":
-                rng = np.random.default_rng(seed)
-                lo, hi = vals.min(axis=0), vals.max(axis=0)
-                x0 = lo + (hi - lo) * rng.random((n, vals.shape[1]))
-        values = hs.solve(bc, x0=x0)
+        values, report["harmonic"] = fill_patches(
+            surface, b, bc, weights=weights, solver=solver, on_empty=on_empty, iteration=iteration,
+            x0=lambda: start_values(init, surface, idx, vals, checks=checks, seed=seed), tol=tol, maxiter=maxiter)
         values = values if values.ndim == 2 else values[:, None]
         seconds["harmonic"] = time.perf_counter() - t
-        report["harmonic"] = {k: v for k, v in hs.report.items() if k != "seconds"}
-        report["harmonic"]["seconds"] = dict(hs.report["seconds"])
     lo, hi = vals.min(axis=0), vals.max(axis=0)
-    X = values if values.ndim == 2 else values[:, None]
     with np.errstate(invalid="ignore"):
-        report["overshoot"] = float(np.nanmax(np.maximum(X - hi, lo - X))) if np.isfinite(X).any() else 0.0
-    seconds["total"] = time.perf_counter() - t0
-    return Reconstruction(
-        values=values[:, 0] if squeeze else values,
-        curves=curves,
-        components=components,
-        on_curve=fixed,
-        levels=levels_out,
-        report=report,
-        V=V,
-        F=F,
-        idx=idx,
-    )
+        over = float(np.nanmax(np.maximum(values - hi, lo - values))) if np.isfinite(values).any() else 0.0
+    report["overshoot"] = over
+    seconds["total"] = before + time.perf_counter() - t0
+    return Reconstruction(values=values, curves=curves, components=components, on_curve=fixed,
+                          levels=[c.levels for c in checks], report=report, V=surface.V, F=surface.F, idx=idx)

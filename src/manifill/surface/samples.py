@@ -6,6 +6,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import SampleError
+from ..results import field_names
 from ..tolerances import TOL
 from ..validate import first_entries, as_samples, bbox_diagonal, unit_scale
 
@@ -103,38 +104,6 @@ class Samples:
         return cls(uidx, uvals, field_names(names, uvals.shape[1]), worst[uidx], k - uidx.size)
 
 
-def field_names(names, p):
-    """Check ``p`` field names, or make ``value, value2, ...``.
-
-    Parameters
-    ----------
-    names : list of str or None
-        Given names.
-    p : int
-        Number of value columns.
-
-    Returns
-    -------
-    list of str
-
-    Raises
-    ------
-    SampleError
-        If the count does not match.
-    """
-    if names is None:
-        return ["value"] + [f"value{j + 1}" for j in range(1, p)]
-    names = [str(s) for s in names]
-    if len(names) != p:
-        raise SampleError(f"{len(names)} field names for {p} value columns; give one name per column")
-    seen = set()
-    for name in names:
-        if name in seen:
-            raise SampleError(f"the value column name {name!r} repeats; give each value column its own name")
-        seen.add(name)
-    return names
-
-
 def snap_to_vertices(V, points, *, max_distance=None):
     """Nearest vertex of every point, with the distance (KD-tree).
 
@@ -173,7 +142,7 @@ def snap_to_vertices(V, points, *, max_distance=None):
     >>> snap_to_vertices(V, [[900, 50, 0]])
     Traceback (most recent call last):
     ...
-    manifill.errors.SampleError: 1 samples lie far from the mesh (row 0: 900 from the nearest vertex, 637 x the mesh's size 1.41; accepted: 1.07); wrong units? ...)
+    manifill.errors.SampleError: 1 samples lie far from the mesh (row 0: 900 from the nearest vertex, ...
     """
     V = np.asarray(V, dtype=np.float64)
     try:
@@ -186,7 +155,8 @@ def snap_to_vertices(V, points, *, max_distance=None):
         raise SampleError(f"sample positions have shape {P.shape}; pass a (k, 3) array with at least one row")
     bad = ~np.isfinite(P).all(axis=1)
     if bad.any():
-        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {first_entries(np.flatnonzero(bad))}")
+        rows = first_entries(np.flatnonzero(bad))
+        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {rows}")
     diag = bbox_diagonal(V)
     # the KD-tree compares squared distances: query in units of a power of two near the
     # mesh's size (exact), so that they neither overflow nor underflow, and scale back

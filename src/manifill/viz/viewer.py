@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OptionError, ReadError, WriteError
-from ..io.registry import atomic_path
+from ..io.files import atomic_path
 from ..validate import as_mesh
 
 __all__ = ["write_html", "embedded_arrays", "named_fields", "choose_field"]

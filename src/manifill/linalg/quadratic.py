@@ -1,0 +1,338 @@
+"""The solve core: minimise a quadratic energy subject to constraints, precomputed once, solved many times.
+
+Every fill of manifill is one problem,
+
+    minimise  E(x) = 1/2 x^T A x + c^T x   subject to  x[idx] = vals  (and Aeq x = beq),
+
+with ``A`` (n x n, sparse, symmetric positive semi-definite) the energy of a
+domain: a surface Laplacian (:func:`manifill.mesh.laplacian.laplacian`), a tet
+stiffness (:func:`manifill.solid.tets.tet_laplacian`) or a voxel Laplacian
+(:func:`manifill.solid.voxels.voxel_laplacian`). With ``I`` the free indices
+and ``b = idx`` the fixed ones, the minimiser solves the reduced system
+
+    A_II x_I = -A_Ib vals - c_I,
+
+which :class:`QuadraticSolver` sets up once (the split, the components, the
+backend's factorisation or hierarchy) and solves for any number of ``vals``
+(``(k,)`` or ``(k, p)``, ``p`` fields at once), in the shape of gpytoolbox's
+``min_quad_with_fixed`` precompute-then-solve. The backend is one of
+:mod:`manifill.linalg.backends` (``direct``, ``amg``, ``iterate``); a backend
+is any object with ``name``, ``setup_seconds`` and ``solve(R, x0) -> (X,
+info)`` (the voxel multigrid :class:`manifill.linalg.gridmg.GridMultigrid` is
+one, matrix-free, used by :class:`manifill.solid.fill.VoxelFill`).
+
+A connected component of ``A``'s graph without a fixed index has no unique
+minimiser (constants are free there): ``on_empty='error'`` raises
+:class:`~manifill.errors.SolveError` naming it, ``on_empty='nan'`` leaves it
+NaN.
+
+Extension points (the next methods plug in here, without reshaping the above):
+
+- *Weighted soft constraints* ``+ 1/2 sum_j w_j (x[s_j] - y_j)^2``: add ``w`` to
+  the diagonal of ``A`` at ``s`` before the split (constructor: ``soft``,
+  ``weights``) and ``-w y`` to the linear term at solve time (``soft_vals``);
+  the reduction, components (a soft index anchors its component) and backends
+  are unchanged.
+- *Linear equality rows* ``Aeq x = beq`` (barycentric points on faces) are
+  there for the ``direct`` backend: ``Aeq`` is reduced like ``A`` (``Aeq_I``,
+  ``beq - Aeq_b vals``) and the KKT system ``[[A_II, Aeq_I^T], [Aeq_I, 0]]``
+  (symmetric indefinite) is factorised. Next: a null-space basis for the
+  iterative backends.
+- *Bounds* ``lo <= x <= hi`` (active set): an outer loop around
+  :meth:`QuadraticSolver.solve` that moves violated indices into ``idx`` at
+  their bound, rebuilds the reduction, and releases those whose multiplier
+  ``(A x + c)_i`` has the wrong sign.
+"""
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError, SampleError, SolveError
+from ..mesh.topology import pattern_components
+from ..validate import as_indices, as_laplacian, as_values, check_option
+from .backends import SOLVERS, make_linear_solver
+
+__all__ = ["ON_EMPTY", "QuadraticSolver", "min_quad_with_fixed"]
+
+#: What to do with a component without a fixed index.
+ON_EMPTY = ("error", "nan")
+
+
+class QuadraticSolver:
+    """Minimise ``1/2 x^T A x + c^T x`` with ``x[idx] = vals``, precomputed once, solved many times.
+
+    Parameters
+    ----------
+    A : (n, n) scipy sparse matrix
+        Symmetric positive semi-definite, positive definite on every component
+        once its fixed indices are removed (a Laplacian or stiffness).
+    idx : (k,) array_like of int
+        Fixed indices, each listed once.
+    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
+        Backend (see :mod:`manifill.linalg.backends`).
+    on_empty : {'error', 'nan'}, optional
+        A connected component of ``A``'s graph without a fixed index: raise
+        :class:`~manifill.errors.SolveError` naming it, or leave it NaN (listed
+        in ``report["empty_components"]``).
+    iteration : {'gauss-seidel', 'jacobi'}, optional
+        Sweep type of ``solver="iterate"``.
+    tol : float, optional
+        Relative residual for ``amg``; largest change per sweep, relative to
+        the range of the fixed values, for ``iterate``.
+    maxiter : int, optional
+        Iteration cap for ``amg`` and ``iterate``.
+    symmetric_pattern : bool, optional
+        Promise that the sparsity pattern of ``A`` is symmetric (it is for
+        manifill's Laplacians), which speeds up the component search.
+    Aeq : (m, n) scipy sparse matrix, optional
+        Linear equality rows ``Aeq x = beq`` (``beq`` given to :meth:`solve`),
+        linearly independent on the unknowns; a component touched by a row
+        counts as anchored. Only with ``solver='direct'`` (or ``'auto'``, which
+        then factorises).
+    what : str, optional
+        The name of ``A`` in error messages.
+
+    Attributes
+    ----------
+    A : (n, n) scipy.sparse.csr_array
+        The energy matrix.
+    idx : (k,) int64 numpy array
+        Fixed indices, in the given order.
+    unknown : (N,) int64 numpy array
+        Indices solved for.
+    empty : (n,) bool numpy array
+        Indices in components without a fixed index (NaN in the result).
+    Aeq : (m, n) scipy.sparse.csr_array or None
+        The equality rows.
+    report : dict
+        ``vertices`` (n), ``fixed``, ``unknowns``, ``components``,
+        ``empty_components`` (list of ``{"vertices", "example_vertex"}``,
+        largest first), ``negative_weights`` (positive off-diagonal pairs of
+        ``A``), ``equality_rows`` (with ``Aeq``), ``solver`` and ``seconds`` (``partition``, ``setup``); after
+        each :meth:`solve` also ``seconds["solve"]`` and the backend's
+        ``iterations``.
+
+    Raises
+    ------
+    MeshError
+        ``A`` not a square sparse matrix of finite numbers.
+    SampleError, OptionError
+        Bad ``idx`` or options.
+    SolveError
+        A component without a fixed index when ``on_empty="error"``.
+
+    See Also
+    --------
+    min_quad_with_fixed : the one-shot function.
+    manifill.surface.harmonic.HarmonicSolver : this, for a mesh's Laplacian.
+
+    Examples
+    --------
+    A path of 5 vertices, its ends fixed:
+
+    >>> import scipy.sparse as sp
+    >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(5, 5)).tolil()
+    >>> A[0, 0] = A[4, 4] = 1.0
+    >>> q = QuadraticSolver(A, [0, 4])
+    >>> q.solve([0.0, 8.0]).round(12).tolist()
+    [0.0, 2.0, 4.0, 6.0, 8.0]
+    >>> q.solve([[0.0, 1.0], [8.0, 1.0]])[2].round(12).tolist()
+    [4.0, 1.0]
+    """
+
+    def __init__(self, A, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None,
+                 maxiter=None, symmetric_pattern=False, Aeq=None, what="A"):
+        check_option("on_empty", on_empty, ON_EMPTY)
+        A = as_laplacian(A, what=what)
+        if Aeq is not None:
+            Aeq = self._equality_rows(Aeq, A.shape[0], solver)
+        self._reduce(A, as_indices(idx, A.shape[0], what="idx"), solver, on_empty, iteration, tol, maxiter,
+                     symmetric_pattern, Aeq)
+
+    @staticmethod
+    def _equality_rows(Aeq, n, solver):
+        check_option("solver", solver, SOLVERS)
+        if solver not in ("auto", "direct"):
+            raise OptionError(f"equality rows (Aeq) are solved by factorising their KKT system, not with "
+                              f"solver={solver!r}; pass solver='direct'")
+        try:
+            Aeq = sp.csr_array(Aeq, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SampleError("Aeq could not be read as a sparse matrix of numbers; pass a scipy.sparse matrix") \
+                from None
+        if Aeq.ndim != 2 or Aeq.shape[1] != n or not np.isfinite(Aeq.data).all():
+            raise SampleError(f"Aeq has shape {Aeq.shape} or entries that are not finite; pass (m, {n}) finite rows")
+        return Aeq
+
+    def _reduce(self, A, idx, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None, maxiter=None,
+                symmetric_pattern=False, Aeq=None):
+        """The Dirichlet reduction: components, ``A_II``, ``A_Ib``, the backend, the report."""
+        n = A.shape[0]
+        self.idx = idx
+        self.n = n
+        self.A = A
+        self.Aeq = Aeq
+        t2 = time.perf_counter()
+        ncomp, labels = pattern_components(A, symmetric=symmetric_pattern)
+        anchors = labels[self.idx]
+        if Aeq is not None:  # a row anchors every component it touches
+            anchors = np.concatenate([anchors, labels[Aeq.indices[Aeq.data != 0]]])
+        has_fixed = np.bincount(anchors, minlength=ncomp) > 0
+        self.empty = ~has_fixed[labels]
+        empty_components = []
+        if self.empty.any():
+            for c in np.flatnonzero(~has_fixed):
+                members = np.flatnonzero(labels == c)
+                empty_components.append({"vertices": int(members.size), "example_vertex": int(members[0])})
+            empty_components.sort(key=lambda e: -e["vertices"])
+            if on_empty == "error":
+                e = empty_components[0]
+                more = f" (and {len(empty_components) - 1} more)" if len(empty_components) > 1 else ""
+                raise SolveError(
+                    f"a connected component of {e['vertices']} vertices (e.g. vertex {e['example_vertex']}) "
+                    f"has no fixed vertex{more}, so its values are undetermined; add a sample there, "
+                    f"or pass on_empty='nan' (CLI: --on-empty nan) to leave it NaN"
+                )
+        known = self.empty.copy()
+        known[self.idx] = True
+        self.unknown = np.flatnonzero(~known)
+        rows = A[self.unknown]
+        self._A_II = rows[:, self.unknown].tocsr()
+        self._A_Ib = rows[:, self.idx].tocsr()
+        K = self._A_II
+        if Aeq is not None:
+            self._Aeq_I, self._Aeq_b = Aeq[:, self.unknown].tocsr(), Aeq[:, self.idx].tocsr()
+            K, solver = sp.csr_array(sp.bmat([[K, self._Aeq_I.T], [self._Aeq_I, None]])), "direct"
+        t3 = time.perf_counter()
+        try:
+            self._solver = make_linear_solver(K, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter)
+        except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
+            if Aeq is None:
+                raise
+            raise SolveError(f"the KKT system of the equality rows is singular ({e}); pass rows that are "
+                             f"linearly independent on the vertices solved for") from None
+        if A.has_canonical_format:  # one stored entry per position: count the diagonal's apart
+            positive = np.count_nonzero(A.data > 0) - np.count_nonzero(A.diagonal() > 0)
+        else:
+            positive = np.count_nonzero(A.data[A.indices != np.repeat(np.arange(n), np.diff(A.indptr))] > 0)
+        self.report = {
+            "vertices": n,
+            "fixed": int(self.idx.size),
+            "unknowns": int(self.unknown.size),
+            "components": int(ncomp),
+            "empty_components": empty_components,
+            "negative_weights": int(positive) // 2,
+            **({} if Aeq is None else {"equality_rows": int(Aeq.shape[0])}),
+            "solver": self._solver.name,
+            "seconds": {"partition": t3 - t2, "setup": self._solver.setup_seconds},
+        }
+
+    def solve(self, vals, *, linear=None, x0=None, beq=None):
+        """The minimiser for the given fixed values.
+
+        Parameters
+        ----------
+        vals : (k,) or (k, p) array_like of float
+            Values at ``idx`` (in the order given), one column per field.
+        linear : (n,) or (n, p) array_like of float, optional
+            The linear term ``c`` of the energy (zero by default); read at the
+            unknowns only.
+        x0 : (n,) or (n, p) array_like, optional
+            Initial guess at every index, used by ``amg`` and ``iterate``
+            (``iterate`` starts from the mean of ``vals`` otherwise).
+        beq : (m,) or (m, p) array_like of float
+            Right-hand sides of the equality rows (required with ``Aeq``).
+
+        Returns
+        -------
+        (n,) or (n, p) numpy array
+            Shaped like ``vals``'s columns; exactly ``vals`` at ``idx``; NaN on
+            empty components.
+
+        Raises
+        ------
+        SampleError
+            If ``vals``, ``linear`` or ``x0`` has the wrong shape or NaN or
+            infinite values.
+        SolveError
+            If an iterative backend does not converge.
+        """
+        vals, squeeze = as_values(vals, self.idx.size, what="vals")
+        t0 = time.perf_counter()
+        R = -(self._A_Ib @ vals)
+        if linear is not None:
+            R -= self._at_unknowns(linear, "linear", vals.shape[1])
+        guess = None
+        if x0 is not None:
+            guess = self._at_unknowns(x0, "x0", vals.shape[1])
+        elif self._solver.name == "iterate":
+            guess = np.broadcast_to(vals.mean(axis=0), R.shape)
+        if self.Aeq is not None:
+            if beq is None:
+                raise SampleError("beq is missing; pass the right-hand side of the equality rows Aeq x = beq")
+            beq, _ = as_values(beq, self.Aeq.shape[0], what="beq")
+            if beq.shape[1] not in (1, vals.shape[1]):
+                raise SampleError(f"beq has {beq.shape[1]} columns for {vals.shape[1]} fields; pass one per field")
+            R = np.vstack([R, beq - self._Aeq_b @ vals])
+            guess = None
+        if self._solver.name == "iterate":
+            X, info = self._solver.solve(R, guess, scale=np.ptp(vals, axis=0))
+        else:
+            X, info = self._solver.solve(R, guess)
+        X = X[:self.unknown.size]
+        out = np.full((self.n, vals.shape[1]), np.nan)
+        out[self.idx] = vals
+        out[self.unknown] = X
+        self.report.update({k: v for k, v in info.items() if k != "solver"})
+        self.report["seconds"]["solve"] = time.perf_counter() - t0
+        return out[:, 0] if squeeze else out
+
+    def _at_unknowns(self, a, what, p):
+        """An (n,) or (n, p) array read at the unknowns, broadcast to (N, p); finite there."""
+        try:
+            a = np.asarray(a, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SampleError(f"{what} could not be read as numbers; pass an (n,) or (n, p) float array") from None
+        a = a[:, None] if a.ndim == 1 else a
+        if a.ndim != 2 or a.shape[0] != self.n or a.shape[1] not in (1, p):
+            raise SampleError(f"{what} has shape {a.shape}; pass ({self.n},) or ({self.n}, {p})")
+        a = np.broadcast_to(a[self.unknown], (self.unknown.size, p))
+        if not np.isfinite(a).all():
+            raise SampleError(f"{what} has NaN or infinite values at vertices to be solved for; give finite "
+                              f"{'guesses' if what == 'x0' else 'values'}")
+        return a
+
+
+def min_quad_with_fixed(A, idx, vals, *, linear=None, **kwargs):
+    """Minimise ``1/2 x^T A x + c^T x`` with ``x[idx] = vals`` (one-shot).
+
+    Parameters
+    ----------
+    A : (n, n) scipy sparse matrix
+        Symmetric positive semi-definite.
+    idx : (k,) array_like of int
+        Fixed indices, each listed once.
+    vals : (k,) or (k, p) array_like of float
+        Values at ``idx``.
+    linear : (n,) or (n, p) array_like of float, optional
+        The linear term ``c``.
+    **kwargs
+        ``solver``, ``on_empty``, ``iteration``, ``tol``, ``maxiter``,
+        ``symmetric_pattern``: as for :class:`QuadraticSolver`.
+
+    Returns
+    -------
+    (n,) or (n, p) numpy array
+
+    Examples
+    --------
+    ``x'' = -2`` on ``[0, 4]`` with ``x(0) = x(4) = 0`` (a constant load):
+
+    >>> import scipy.sparse as sp
+    >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(5, 5))
+    >>> min_quad_with_fixed(A, [0, 4], [0.0, 0.0], linear=-2 * np.ones(5)).round(12).tolist()
+    [0.0, 3.0, 4.0, 3.0, 0.0]
+    """
+    return QuadraticSolver(A, idx, **kwargs).solve(vals, linear=linear)

@@ -1,0 +1,160 @@
+"""The one result family: values on a domain, manifill's masks, a report.
+
+Every reconstruction returns a :class:`Result`: on a surface
+:class:`manifill.surface.reconstruct.Reconstruction` (Steps 1-6), on a solid
+:class:`manifill.solid.reconstruct_volume.VolumeReconstruction` (tets or voxels,
+Steps 1-8). A result has
+
+- ``values``: the field(s) at every point of its domain, a last axis per field
+  when there are several;
+- ``report``: a dict of diagnostics, with ``seconds`` per step;
+- :meth:`Result.masks`: manifill's mask and label arrays, under the names below
+  (the same in every output file);
+- :meth:`Result.point_data`: the fields, named, and the masks: what is written;
+- :meth:`Result.to_pyvista`, :meth:`Result.to_meshio`: the domain as an object of
+  those libraries (each result says what it can give).
+
+The mask names live here, at the base of the package, so that results and the file
+formats of :mod:`manifill.io` use one naming scheme.
+"""
+
+import numpy as np
+
+from .errors import SampleError
+
+__all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES", "Result", "field_names",
+           "sample_mask"]
+
+#: 1 where a vertex (or voxel) holds a sample
+SAMPLE_MASK = "sample_mask"
+#: 1 on the partition curves (their values were fixed before the harmonic fill)
+CURVE_MASK = "curve_mask"
+#: the patch of every vertex, -1 on the curves
+PATCH_LABEL = "patch_label"
+#: 1 on the boundary of a solid (tet vertices on its surface; voxels of D, filled from the surface)
+BOUNDARY_MASK = "boundary_mask"
+RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK)
+
+
+def field_names(names, p):
+    """Check ``p`` field names, or make ``value, value2, ...``.
+
+    Parameters
+    ----------
+    names : list of str or None
+        Given names.
+    p : int
+        Number of value columns.
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    SampleError
+        If the count does not match, or a name repeats.
+
+    Examples
+    --------
+    >>> field_names(None, 3)
+    ['value', 'value2', 'value3']
+    """
+    if names is None:
+        return ["value"] + [f"value{j + 1}" for j in range(1, p)]
+    names = [str(s) for s in names]
+    if len(names) != p:
+        raise SampleError(f"{len(names)} field names for {p} value columns; give one name per column")
+    seen = set()
+    for name in names:
+        if name in seen:
+            raise SampleError(f"the value column name {name!r} repeats; give each value column its own name")
+        seen.add(name)
+    return names
+
+
+def sample_mask(n, idx):
+    """The :data:`SAMPLE_MASK` array of ``n`` points: True at the samples ``idx``.
+
+    Parameters
+    ----------
+    n : int
+        Number of points (vertices).
+    idx : (k,) array_like of int
+        The sample points.
+
+    Returns
+    -------
+    (n,) bool numpy array
+
+    Examples
+    --------
+    >>> sample_mask(4, [0, 2]).tolist()
+    [True, False, True, False]
+    """
+    mask = np.zeros(n, dtype=bool)
+    mask[np.asarray(idx, dtype=np.int64)] = True
+    return mask
+
+
+class Result:
+    """Base of manifill's results (see the module docstring).
+
+    A subclass has the attributes ``values`` and ``report``, sets
+    :attr:`point_ndim` (or overrides it as a property) and implements
+    :meth:`masks`; :meth:`point_data` follows. :meth:`to_pyvista` and
+    :meth:`to_meshio` raise ``NotImplementedError`` here.
+    """
+
+    #: Number of leading axes of ``values`` that index points (1 for vertices, 3 for voxels).
+    point_ndim = 1
+
+    def fields(self):
+        """``values`` with a last axis per field, also for a single field.
+
+        Returns
+        -------
+        numpy array
+            Shape ``points + (p,)``: a view of ``values`` when there is one.
+        """
+        X = self.values
+        return X if X.ndim == self.point_ndim + 1 else X[..., None]
+
+    def masks(self):
+        """manifill's mask and label arrays of this result, by name (:data:`SAMPLE_MASK`, ...).
+
+        Returns
+        -------
+        dict of str to numpy array
+        """
+        raise NotImplementedError
+
+    def point_data(self, names=None):
+        """The fields and the masks, named as in every output file.
+
+        Parameters
+        ----------
+        names : list of str, optional
+            One name per field (``value``, ``value2``, ... by default).
+
+        Returns
+        -------
+        dict of str to numpy array
+            The fields first, in order, then :meth:`masks`.
+
+        Raises
+        ------
+        SampleError
+            ``names`` not one per field, or repeated.
+        """
+        X = self.fields()
+        data = dict(zip(field_names(names, X.shape[-1]), np.moveaxis(X, -1, 0)))
+        return {**data, **self.masks()}
+
+    def to_pyvista(self, names=None):
+        """The domain with every field and mask as a pyvista object (needs the ``[viz]`` extra)."""
+        raise NotImplementedError
+
+    def to_meshio(self, names=None):
+        """The domain with every field and mask as a ``meshio.Mesh``."""
+        raise NotImplementedError

@@ -1,0 +1,182 @@
+"""Steps 5-6 of the paper: fill every patch harmonically, the curve values fixed.
+
+:func:`fill_patches` solves the Dirichlet problem ``x[b] = bc``, ``(L x)_i = 0``
+elsewhere, on a :class:`manifill.surface.surface.Surface` with its Laplacian for the
+chosen weights, through :meth:`manifill.surface.harmonic.HarmonicSolver.from_laplacian`.
+The paper's Step 5 iterates from random values or from a gradually varied fit;
+:func:`start_values` gives either (used by ``solver='iterate'`` only).
+:func:`gvf_fill` is the gradually varied fit of the whole surface itself (the
+``gvf`` method of :func:`manifill.surface.reconstruct.reconstruct`).
+"""
+
+import numpy as np
+
+from ..errors import SolveError
+from ..mesh.laplacian import WEIGHTS
+from ..validate import check_option
+from .gradual import gvf
+from .harmonic import HarmonicSolver
+
+__all__ = ["INITS", "fill_patches", "gvf_fill", "start_values"]
+
+#: Initial values of ``solver='iterate'``: a GVF fit, random values in the samples' range,
+#: or the mean of the fixed values (the solver's own start).
+INITS = ("gvf", "random", "mean")
+
+
+def gvf_fill(surface, idx, vals, checks, *, on_empty="nan"):
+    """The gradually varied fit of the whole surface: a level at every vertex, the samples' own values.
+
+    Parameters
+    ----------
+    surface : Surface
+        Its ``G_hops`` is used.
+    idx : (k,) int64 numpy array
+        Sample vertices, sorted and unique.
+    vals : (k, p) numpy array
+        Sample values.
+    checks : list of p GradualCheck
+        Step 1 per field (:func:`manifill.surface.gradual.check_gradual`): the
+        levels and each sample's level.
+    on_empty : {'nan', 'error'}, optional
+        Vertices no sample reaches: NaN, or raise.
+
+    Returns
+    -------
+    (n, p) numpy array
+        ``levels[gvf]`` of every field at every vertex, ``vals`` at ``idx``.
+
+    Raises
+    ------
+    SampleError
+        The samples break the gradual variation condition.
+    SolveError
+        Vertices without a sample in their component and ``on_empty='error'``.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import grid
+    >>> from manifill.surface.gradual import check_gradual
+    >>> from manifill.surface.surface import Surface
+    >>> s, idx, vals = Surface.from_mesh(*grid(3)), np.array([0, 8]), np.array([[0.0], [2.0]])
+    >>> gvf_fill(s, idx, vals, [check_gradual(s.G_hops, idx, vals[:, 0])]).ravel().tolist()
+    [0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 2.0]
+    """
+    check_option("on_empty", on_empty, ("nan", "error"))
+    n = surface.G_hops.shape[0]
+    X = np.empty((n, vals.shape[1]))
+    for j, c in enumerate(checks):
+        lev = gvf(surface.G_hops, idx, c.level)
+        X[:, j] = np.where(lev >= 0, c.levels[np.maximum(lev, 0)], np.nan)
+    X[idx] = vals
+    empty = np.isnan(X[:, 0])
+    if empty.any() and on_empty == "error":
+        v = int(np.flatnonzero(empty)[0])
+        raise SolveError(
+            f"{int(empty.sum())} vertices (e.g. vertex {v}) lie in components without samples, so their "
+            f"values are undetermined; add a sample there, or pass on_empty='nan' to leave them NaN")
+    return X
+
+
+def start_values(init, surface, idx, vals, *, checks=None, seed=0):
+    """Initial values of the paper's iteration (Step 5).
+
+    Parameters
+    ----------
+    init : {'gvf', 'random', 'mean'}
+        The gradually varied fit (:func:`gvf_fill`, the paper's faster start),
+        uniform random values in the range of each field's samples, or None
+        (the solver starts from the mean of the fixed values).
+    surface : Surface
+    idx : (k,) int64 numpy array
+        Sample vertices, sorted and unique.
+    vals : (k, p) numpy array
+        Sample values.
+    checks : list of p GradualCheck, optional
+        Step 1 per field (``gvf``).
+    seed : int, optional
+        Seed of ``random``.
+
+    Returns
+    -------
+    (n, p) numpy array or None
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import grid
+    >>> from manifill.surface.surface import Surface
+    >>> x0 = start_values("random", Surface.from_mesh(*grid(3)), np.array([0, 8]), np.array([[0.0], [2.0]]))
+    >>> x0.shape, bool((0 <= x0).all() and (x0 <= 2).all())
+    ((9, 1), True)
+    """
+    check_option("init", init, INITS)
+    if init == "gvf":
+        return gvf_fill(surface, idx, vals, checks)
+    if init == "random":
+        rng = np.random.default_rng(seed)
+        lo, hi = vals.min(axis=0), vals.max(axis=0)
+        return lo + (hi - lo) * rng.random((surface.G_hops.shape[0], vals.shape[1]))
+    return None
+
+
+def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error",
+                 iteration="gauss-seidel", x0=None, tol=None, maxiter=None):
+    """Steps 5-6: the harmonic fill with the values at ``idx`` fixed.
+
+    Parameters
+    ----------
+    surface : Surface
+        Its Laplacian for ``weights`` (``surface.laplacian(weights)``, cached).
+    idx : (c,) int64 numpy array
+        Fixed vertices (the curve vertices of Step 4, or the samples alone), unique.
+    vals : (c,) or (c, p) numpy array
+        Their values.
+    weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
+        Laplacian weights (:mod:`manifill.mesh.laplacian`).
+    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
+        Linear solver (:mod:`manifill.linalg.backends`).
+    on_empty : {'error', 'nan'}, optional
+        A component without a fixed vertex: raise, or leave it NaN.
+    iteration : {'gauss-seidel', 'jacobi'}, optional
+        Sweeps of ``solver='iterate'``.
+    x0 : (n,) or (n, p) array, callable or None, optional
+        Initial values, used only when the solver is ``iterate``; a callable
+        (e.g. ``lambda: start_values(...)``) is called only then.
+    tol, maxiter : optional
+        Passed to the solver.
+
+    Returns
+    -------
+    values : (n,) or (n, p) numpy array
+        Shaped like ``vals``' columns; exactly ``vals`` at ``idx``.
+    report : dict
+        The solver's report (:class:`~manifill.surface.harmonic.HarmonicSolver`),
+        with ``weights``.
+
+    Raises
+    ------
+    SolveError
+        A component without a fixed vertex and ``on_empty='error'``, or a solver failure.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import grid
+    >>> from manifill.surface.surface import Surface
+    >>> V, F = grid(5)
+    >>> b = np.flatnonzero((V[:, 0] == 0) | (V[:, 0] == 1))
+    >>> x, report = fill_patches(Surface.from_mesh(V, F), b, V[b, 0])
+    >>> bool(np.allclose(x, V[:, 0])), report["weights"]
+    (True, 'cotan')
+    """
+    check_option("weights", weights, WEIGHTS)
+    L = surface.laplacian(weights)
+    hs = HarmonicSolver.from_laplacian(L, idx, solver=solver, on_empty=on_empty, iteration=iteration,
+                                       tol=tol, maxiter=maxiter, symmetric_pattern=weights in ("uniform", "cotan"))
+    hs.report["weights"] = weights
+    start = None
+    if hs.report["solver"] == "iterate":
+        start = x0() if callable(x0) else x0
+    values = hs.solve(vals, x0=start)
+    report = {k: v for k, v in hs.report.items() if k != "seconds"}
+    report["seconds"] = dict(hs.report["seconds"])
+    return values, report

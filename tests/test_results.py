@@ -1,0 +1,69 @@
+"""The result family (manifill.results): one set of mask names, point data built the same way for every result."""
+
+import numpy as np
+import pytest
+
+import manifill.io.field_names as io_names
+from conftest import icosphere
+from manifill import SampleError
+from manifill.results import BOUNDARY_MASK, CURVE_MASK, PATCH_LABEL, RESERVED_NAMES, SAMPLE_MASK, Result, field_names
+from manifill.surface.reconstruct import Reconstruction, reconstruct
+
+
+def test_mask_names_are_one_set_shared_with_the_file_formats():
+    assert (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK) == ("sample_mask", "curve_mask", "patch_label",
+                                                                     "boundary_mask")
+    assert RESERVED_NAMES == (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK)
+    assert io_names.RESERVED_NAMES is RESERVED_NAMES and io_names.SAMPLE_MASK is SAMPLE_MASK
+
+
+def test_field_names():
+    assert field_names(None, 1) == ["value"] and field_names(None, 3) == ["value", "value2", "value3"]
+    assert field_names(("a", 2), 2) == ["a", "2"]
+    with pytest.raises(SampleError, match="2 field names for 3"):
+        field_names(["a", "b"], 3)
+    with pytest.raises(SampleError, match="repeats"):
+        field_names(["a", "a"], 2)
+
+
+class Grid(Result):
+    """A minimal result on a 2 x 3 x 4 voxel grid: values with three point axes."""
+
+    point_ndim = 3
+
+    def __init__(self, values):
+        self.values, self.report = values, {}
+
+    def masks(self):
+        return {BOUNDARY_MASK: np.ones((2, 3, 4), dtype=bool)}
+
+
+def test_point_data_splits_the_field_axis_and_appends_the_masks():
+    X = np.arange(48.0).reshape(2, 3, 4, 2)
+    data = Grid(X).point_data(["u", "v"])
+    assert list(data) == ["u", "v", BOUNDARY_MASK]
+    assert data["u"].tobytes() == X[..., 0].tobytes() and data["v"].tobytes() == X[..., 1].tobytes()
+    one = Grid(X[..., 0])
+    assert one.fields().shape == (2, 3, 4, 1) and list(one.point_data()) == ["value", BOUNDARY_MASK]
+    with pytest.raises(NotImplementedError):
+        Grid(X).to_pyvista()
+    with pytest.raises(NotImplementedError):
+        Result().masks()
+
+
+@pytest.mark.parametrize("columns", [1, 2])
+def test_a_reconstruction_is_a_result_with_its_masks(columns):
+    V, F = icosphere(2)
+    idx = np.array([0, 10, 50, 90, 120])
+    vals = np.column_stack([V[idx, 0], V[idx, 1]])[:, :columns]
+    r = reconstruct(V, F, idx, vals[:, 0] if columns == 1 else vals)
+    assert isinstance(r, Result) and isinstance(r, Reconstruction)
+    data = r.point_data()
+    assert list(data) == field_names(None, columns) + [SAMPLE_MASK, CURVE_MASK, PATCH_LABEL]
+    assert np.flatnonzero(data[SAMPLE_MASK]).tolist() == idx.tolist()
+    assert data[CURVE_MASK] is r.on_curve and data[PATCH_LABEL] is r.components
+    X = r.values.reshape(len(V), -1)
+    for j, name in enumerate(field_names(None, columns)):
+        assert data[name].tobytes() == X[:, j].tobytes()
+    # every patch label is -1 exactly on the curves
+    assert ((r.components == -1) == r.on_curve).all()

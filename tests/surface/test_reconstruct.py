@@ -7,7 +7,7 @@ from scipy.sparse import csgraph
 from conftest import edge_set, grid, icosphere, irregular, relabel, torus, two_components
 from manifill import OptionError, SampleError, SolveError, harmonic
 from manifill.mesh.graph import mesh_graph
-from manifill.surface.reconstruct import reconstruct
+from manifill.surface.reconstruct import STEPS, reconstruct
 from manifill.mesh.shapes import grid as shapes_grid
 
 METHODS = ("gvf-harmonic", "harmonic", "gvf")
@@ -425,3 +425,13 @@ def test_reconstruct_surface_keeps_the_field_axis_and_adds_its_timings():
     assert r.values[:, 0].tobytes() == reconstruct(V, F, idx, vals[:, 0]).values.tobytes()
     with pytest.raises(OptionError, match="curve_values"):
         reconstruct_surface(Surface.from_mesh(V, F), idx, vals, curve_values="cubic")
+
+
+@pytest.mark.parametrize("method", sorted(STEPS))
+def test_progress_names_exactly_the_steps_run(method):
+    """A progress bar's total (the command line's) is the count of STEPS: the steps told must be those."""
+    V, F = icosphere(2)
+    idx = np.arange(0, len(V), 9)
+    told = []
+    reconstruct(V, F, idx, V[idx, 0], method=method, progress=told.append)
+    assert tuple(told) == ("graph",) + STEPS[method]

@@ -17,7 +17,7 @@ from pathlib import Path
 from ..errors import SampleError, WriteError
 
 __all__ = ["load", "check_outputs", "write_surface", "levels", "step_bar", "print_time", "pictures", "chosen_field",
-           "surface_outputs", "check_names", "print_ranges", "err", "SURFACE_STEPS"]
+           "surface_outputs", "check_names", "print_ranges", "err"]
 
 
 def load(args):
@@ -143,13 +143,6 @@ def levels(text):
         return int(text)
     except ValueError:
         raise SampleError(f"--levels {text!r} is neither a count nor a comma-separated list of numbers") from None
-
-
-#: The steps each surface method runs, in order, under the names the library gives ``progress``
-#: (:func:`manifill.surface.reconstruct.reconstruct_surface`; :func:`manifill.surface.reconstruct.reconstruct`
-#: runs ``graph`` first).
-SURFACE_STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill"),
-                 "harmonic": ("check", "harmonic fill"), "gvf": ("check", "gvf")}
 
 
 def step_bar(args, steps):

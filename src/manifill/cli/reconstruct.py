@@ -1,6 +1,7 @@
 """``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6)."""
 
-from .common import (SURFACE_STEPS, check_names, levels, load, pictures, print_ranges, print_time, step_bar,
+from ..surface.reconstruct import STEPS
+from .common import (check_names, levels, load, pictures, print_ranges, print_time, step_bar,
                      surface_outputs, write_surface)
 from .options import fill_args, output_args, picture_args, pipeline_args, sample_args
 
@@ -36,7 +37,7 @@ def run(args):
         from ..mesh.subdivide import check_subdivide
 
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
-    bar = step_bar(args, ("graph",) + SURFACE_STEPS[args.method])
+    bar = step_bar(args, ("graph",) + STEPS[args.method])
     try:
         r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
                         distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,

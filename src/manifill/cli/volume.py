@@ -63,7 +63,8 @@ def _triple(text, what):
 
 def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
-    from .common import SURFACE_STEPS, check_outputs, levels, step_bar
+    from ..surface.reconstruct import STEPS
+    from .common import check_outputs, levels, step_bar
     from ..errors import ReadError, WriteError
     from ..io import GRID_FORMATS, TET_FORMATS, has_tets
 
@@ -80,7 +81,7 @@ def run(args):
                            [args.mesh, args.samples])
     # the mask's digital surface is built without a "graph" step; a surface is first voxelised or tetrahedralised
     solid = {"mask": (), "tets": ()}.get(kind, ("voxelize",) if form == "voxels" else ("tetrahedralize",))
-    bar = step_bar(args, ("graph",) * (kind != "mask") + SURFACE_STEPS[args.method] + solid + ("fill",))
+    bar = step_bar(args, ("graph",) * (kind != "mask") + STEPS[args.method] + solid + ("fill",))
     surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
                         levels=levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
                         solver=args.solver, progress=bar)

@@ -40,9 +40,15 @@ from .partition import PARTITIONS
 from .partition import partition as _partition
 from .surface import Surface
 
-__all__ = ["METHODS", "INITS", "Reconstruction", "reconstruct", "reconstruct_surface", "check_options"]
+__all__ = ["METHODS", "STEPS", "INITS", "Reconstruction", "reconstruct", "reconstruct_surface", "check_options"]
 
 METHODS = ("gvf-harmonic", "harmonic", "gvf")
+
+#: The steps each method runs, in order, under the names it passes to ``progress``
+#: (:func:`reconstruct` runs ``graph`` before them; a progress bar's total is their count).
+STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill"),
+         "harmonic": ("check", "harmonic fill"),
+         "gvf": ("check", "gvf")}
 
 
 @dataclass

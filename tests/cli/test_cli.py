@@ -453,7 +453,7 @@ def test_check_holds_with_auto_levels_and_prints_the_lipschitz_constant(tmp_path
     assert code == 0 and err == ""
     from manifill.mesh.graph import mesh_graph
     from manifill.surface.gradual import lipschitz_constant
-    G = mesh_graph(s["V"], s["F"])
+    G = mesh_graph(s["V"], s["F"], distance="hops")
     for j, name in enumerate(["temp", "pressure"]):
         K = lipschitz_constant(G, s["idx"], s["vals"][:, j])[0]
         assert f"{name}:" in out and f"Lipschitz constant {K:.6g} per hop" in out
@@ -467,7 +467,7 @@ def test_check_fails_with_too_many_levels_and_lists_pairs(tmp_path, capsys, sphe
     assert "FAILS for" in out
     from manifill.mesh.graph import mesh_graph
     from manifill.surface.gradual import check_gradual
-    c = check_gradual(mesh_graph(s["V"], s["F"]), s["idx"], s["vals"][:, 0], levels=1000)
+    c = check_gradual(mesh_graph(s["V"], s["F"], distance="hops"), s["idx"], s["vals"][:, 0], levels=1000)
     assert f"FAILS for {len(c.violations)} samples" in out
 
 

@@ -193,7 +193,7 @@ def barycentric_rows(n, rng, m, avoid):
     """``m`` rows, each a random point of a random triangle of free vertices (weights >= 0 summing to 1)."""
     free = np.setdiff1d(np.arange(n), avoid)
     rows = []
-    for j in range(m):
+    for _ in range(m):
         tri = rng.choice(free, 3, replace=False)
         rows.append(sp.coo_array((rng.dirichlet(np.ones(3)), (np.zeros(3, int), tri)), shape=(1, n)))
     return sp.csr_array(sp.vstack(rows))

@@ -194,7 +194,7 @@ def test_hermite_is_exact_at_the_samples(name, method, distance, seed, k):
 def test_gvf_values_are_levels_changing_by_one_per_curve_edge(name, method, distance, seed, k):
     V, F, idx, part, rng = network(name, method, distance, seed, k)
     vals = rng.uniform(-2.0, 5.0, size=idx.size)
-    check = check_gradual(mesh_graph(V, F), idx, vals)
+    check = check_gradual(mesh_graph(V, F, distance="hops"), idx, vals)
     assert check.holds
     E = part.curve_edges()
     cv, x = curve_values(V, E, idx, None, method="gvf", levels=check.levels, level=check.level)
@@ -213,7 +213,7 @@ def test_gvf_curve_values_equal_the_samples_at_the_samples():
     rng = np.random.default_rng(0)
     idx = np.sort(rng.choice(len(V), size=10, replace=False))
     vals = rng.standard_normal(10)
-    check = check_gradual(mesh_graph(V, F), idx, vals)
+    check = check_gradual(mesh_graph(V, F, distance="hops"), idx, vals)
     assert check.level_error > 0.1
     part = partition(V, F, idx, mesh_graph(V, F, distance="length"))
     cv, x = curve_values(V, part.curve_edges(), idx, vals, method="gvf", levels=check.levels, level=check.level)

@@ -164,7 +164,7 @@ def test_lipschitz_constant_is_the_all_pairs_maximum(kind, distance, seed, k):
 
 def test_lipschitz_constant_trivial_cases():
     V, F = grid(4)
-    G = mesh_graph(V, F)
+    G = mesh_graph(V, F, distance="hops")
     assert lipschitz_constant(G, np.array([3]), np.array([1.0]))[:2] == (0.0, (-1, -1))
     assert lipschitz_constant(G, np.array([3, 9, 12]), np.full(3, -2.0))[:2] == (0.0, (-1, -1))
     K, pair, _ = lipschitz_constant(G, np.array([0, 15]), np.array([1.0, 7.0]))
@@ -177,7 +177,7 @@ def test_lipschitz_constant_trivial_cases():
 ])
 def test_lipschitz_constant_samples_in_two_components(idx, vals, expected):
     V, F = two_components()
-    G = mesh_graph(V, F)
+    G = mesh_graph(V, F, distance="hops")
     assert brute_lipschitz(all_pairs(G), np.array(idx), np.array(vals)) == pytest.approx(expected)
     K, _, _ = lipschitz_constant(G, np.array(idx), np.array(vals))
     assert K == pytest.approx(expected, abs=1e-15)
@@ -290,7 +290,7 @@ def test_auto_step_is_the_lipschitz_constant_unless_rounding_breaks_it(kind, dis
 def test_auto_step_equals_hop_lipschitz_when_samples_lie_on_levels(name, seed):
     # values c + s * (hop distance to one sample): integer multiples of s, 1-Lipschitz in hops -> K = s exactly
     V, F = mesh(name)
-    G = mesh_graph(V, F)
+    G = mesh_graph(V, F, distance="hops")
     rng = np.random.default_rng(seed)
     idx = random_samples(rng, len(V), 12)
     s, c = 0.37, -1.25
@@ -309,13 +309,13 @@ def test_auto_step_equals_hop_lipschitz_when_samples_lie_on_levels(name, seed):
 def test_bad_levels_raise_sample_error(levels):
     V, F = grid(4)
     with pytest.raises(SampleError):
-        check_gradual(mesh_graph(V, F), np.array([0, 5, 15]), np.array([0.0, 1.0, 2.0]), levels=levels)
+        check_gradual(mesh_graph(V, F, distance="hops"), np.array([0, 5, 15]), np.array([0.0, 1.0, 2.0]), levels=levels)
 
 
 def test_docstring_violation_example_by_hand():
     # 0 and 1 are adjacent; with 4 levels their values 0 and 3 are 3 levels apart
     V, F = grid(5)
-    check = check_gradual(mesh_graph(V, F), np.array([0, 1]), np.array([0.0, 3.0]), levels=4)
+    check = check_gradual(mesh_graph(V, F, distance="hops"), np.array([0, 1]), np.array([0.0, 3.0]), levels=4)
     assert not check.holds
     np.testing.assert_array_equal(check.violations, [[1.0, 0.0, 1.0, 3.0]])
 
@@ -356,7 +356,7 @@ def test_offset_distances_is_the_minimum_over_sources(kind, distance, seed, k):
 
 def test_offset_distances_docstring_example_by_hand():
     V, F = grid(4)
-    d, root, pred = offset_distances(mesh_graph(V, F), np.array([0, 15]), np.array([0.0, 10.0]))
+    d, root, pred = offset_distances(mesh_graph(V, F, distance="hops"), np.array([0, 15]), np.array([0.0, 10.0]))
     assert (d[15], root[15]) == (3.0, 0)
     assert len(trace(pred, 15)) == 4 and trace(pred, 15)[-1] == 0
 
@@ -401,7 +401,7 @@ def test_gvf_is_a_gradually_varied_fit(kind, seed, k, method):
 
 def test_gvf_docstring_example_by_hand():
     V, F = grid(4, diagonal="right")
-    fit = gvf(mesh_graph(V, F), np.array([0, 15]), np.array([0, 2]))
+    fit = gvf(mesh_graph(V, F, distance="hops"), np.array([0, 15]), np.array([0, 2]))
     assert fit.reshape(4, 4).tolist() == [[0, 0, 0, 1], [0, 0, 1, 1], [0, 1, 1, 2], [1, 1, 2, 2]]
 
 
@@ -409,7 +409,7 @@ def test_gvf_docstring_example_by_hand():
 @pytest.mark.parametrize("seed", range(4))
 def test_gvf_raises_naming_real_violations(method, seed):
     V, F = icosphere(2)
-    G = mesh_graph(V, F)
+    G = mesh_graph(V, F, distance="hops")
     D = all_pairs(G)
     rng = np.random.default_rng(seed)
     idx = random_samples(rng, len(V), 10)
@@ -431,7 +431,7 @@ def test_gvf_rejects_a_length_graph_and_unknown_methods():
     with pytest.raises(OptionError):
         gvf(mesh_graph(V, F, distance="length"), idx, level)
     with pytest.raises(OptionError):
-        gvf(mesh_graph(V, F), idx, level, method="fastest")
+        gvf(mesh_graph(V, F, distance="hops"), idx, level, method="fastest")
 
 
 # ---------------------------------------------------------------------------
@@ -494,11 +494,11 @@ def test_lipschitz_extensions(kind, distance, seed, k, factor):
 
 def test_lipschitz_extension_docstring_example_and_constant_values():
     V, F = grid(5, diagonal="right")
-    G = mesh_graph(V, F)
+    G = mesh_graph(V, F, distance="hops")
     x = lipschitz_extension(G, np.array([0, 24]), np.array([0.0, 4.0]))
     assert x.reshape(5, 5)[0].tolist() == [0.0, 0.5, 1.0, 1.5, 2.0]
     V, F = two_components()
-    y = lipschitz_extension(mesh_graph(V, F), np.array([1, 3]), np.array([2.0, 2.0]))
+    y = lipschitz_extension(mesh_graph(V, F, distance="hops"), np.array([1, 3]), np.array([2.0, 2.0]))
     np.testing.assert_array_equal(y[:16], 2.0)
     assert np.isnan(y[16:]).all()
     with pytest.raises(OptionError):
@@ -507,7 +507,7 @@ def test_lipschitz_extension_docstring_example_and_constant_values():
 
 def test_lipschitz_extension_k_zero_with_samples_in_two_components():
     V, F = two_components()
-    G = mesh_graph(V, F)
+    G = mesh_graph(V, F, distance="hops")
     x = lipschitz_extension(G, np.array([0, 20]), np.array([0.0, 5.0]), K=0.0)
     np.testing.assert_array_equal(x[:16], 0.0)
     np.testing.assert_array_equal(x[16:], 5.0)

@@ -278,7 +278,7 @@ def test_partition_invariants_on_dense_samples():
 def test_unknown_method_raises():
     V, F, _ = mesh("icosphere2")
     with pytest.raises(OptionError):
-        partition(V, F, np.array([0, 1]), mesh_graph(V, F), method="voronoi")
+        partition(V, F, np.array([0, 1]), mesh_graph(V, F, distance="hops"), method="voronoi")
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -310,5 +310,5 @@ def test_steepest_curve_bounds_the_hop_lipschitz_constant_from_below(name, metho
 
 def test_steepest_without_curves():
     V, F, _ = mesh("grid")
-    part = partition(V, F, np.array([3]), mesh_graph(V, F), method="delaunay")
+    part = partition(V, F, np.array([3]), mesh_graph(V, F, distance="hops"), method="delaunay")
     assert part.curves == [] and part.steepest(np.array([3]), np.ones((1, 2))) == [None, None]

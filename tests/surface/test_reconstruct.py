@@ -30,7 +30,7 @@ def random_samples(V, k, seed):
 
 def on_levels(V, F, idx, s=0.25, c=-0.5):
     """Sample values c + s * (hops to the first sample): exactly on uniform levels that auto levels pick."""
-    hops = csgraph.shortest_path(mesh_graph(V, F), unweighted=True, indices=idx[0])[idx]
+    hops = csgraph.shortest_path(mesh_graph(V, F, distance="hops"), unweighted=True, indices=idx[0])[idx]
     return c + s * hops
 
 

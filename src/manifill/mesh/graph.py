@@ -30,7 +30,7 @@ DISTANCES = ("hops", "length")
 Voronoi = namedtuple("Voronoi", "p q length edge dist root pred")
 
 
-def mesh_graph(V, F, *, distance="hops", index=None):
+def mesh_graph(V, F, *, distance="length", index=None):
     """The mesh graph with edge lengths for the chosen distance.
 
     Parameters
@@ -39,8 +39,9 @@ def mesh_graph(V, F, *, distance="hops", index=None):
         Vertex positions (validated).
     F : (m, 3) numpy array of int
         Triangles (validated).
-    distance : {'hops', 'length'}, optional
-        Edge length 1, or Euclidean edge length divided by the mean edge length.
+    distance : {'length', 'hops'}, optional
+        Euclidean edge length divided by the mean edge length (the default, as
+        everywhere in manifill), or edge length 1 (Step 1's hop distance).
     index : manifill.mesh.edges.EdgeIndex, optional
         The edge index of ``F``, when the caller has one already.
 
@@ -53,7 +54,7 @@ def mesh_graph(V, F, *, distance="hops", index=None):
     --------
     >>> from manifill.mesh.shapes import grid
     >>> V, F = grid(3)
-    >>> G = mesh_graph(V, F)
+    >>> G = mesh_graph(V, F, distance="hops")
     >>> int(G.nnz), float(G.max())
     (32, 1.0)
     """
@@ -105,7 +106,7 @@ def offset_distances(G, sources, offsets):
     --------
     >>> from manifill.mesh.shapes import grid
     >>> V, F = grid(4)
-    >>> d, root, _ = offset_distances(mesh_graph(V, F), np.array([0, 15]), np.array([0.0, 10.0]))
+    >>> d, root, _ = offset_distances(mesh_graph(V, F, distance="hops"), np.array([0, 15]), np.array([0.0, 10.0]))
     >>> d[15], root[15]
     (np.float64(3.0), np.int64(0))
     """

@@ -66,7 +66,8 @@ def lipschitz_constant(G, idx, vals, *, start=None):
     >>> from manifill.mesh.shapes import grid
     >>> from manifill.mesh.graph import mesh_graph
     >>> V, F = grid(5)
-    >>> K, pair, _ = lipschitz_constant(mesh_graph(V, F), np.array([0, 4, 24]), np.array([0.0, 2.0, 3.0]))
+    >>> G = mesh_graph(V, F, distance="hops")
+    >>> K, pair, _ = lipschitz_constant(G, np.array([0, 4, 24]), np.array([0.0, 2.0, 3.0]))
     >>> float(K), pair
     (0.75, (0, 2))
     """
@@ -159,7 +160,7 @@ class GradualCheck:
         --------
         >>> from manifill.mesh.shapes import grid
         >>> from manifill.mesh.graph import mesh_graph
-        >>> G = mesh_graph(*grid(5))
+        >>> G = mesh_graph(*grid(5), distance="hops")
         >>> c = check_gradual(G, np.array([0, 1, 24]), np.array([0.0, 3.0, 4.0]), levels=5)
         >>> c.worst(1).tolist()
         [[1.0, 0.0, 1.0, 3.0]]
@@ -245,7 +246,7 @@ def check_gradual(G, idx, vals, *, levels=None, distance=None, start=None):
     >>> from manifill.mesh.shapes import grid
     >>> from manifill.mesh.graph import mesh_graph
     >>> V, F = grid(5)
-    >>> G = mesh_graph(V, F)
+    >>> G = mesh_graph(V, F, distance="hops")
     >>> c = check_gradual(G, np.array([0, 4, 24]), np.array([0.0, 2.0, 3.0]))
     >>> c.holds, float(c.step), c.level.tolist()
     (True, 0.75, [0, 3, 4])
@@ -377,7 +378,7 @@ def gvf(G, idx, level, *, method="envelope"):
     >>> from manifill.mesh.shapes import grid
     >>> from manifill.mesh.graph import mesh_graph
     >>> V, F = grid(4, diagonal="right")
-    >>> fit = gvf(mesh_graph(V, F), np.array([0, 15]), np.array([0, 2]))
+    >>> fit = gvf(mesh_graph(V, F, distance="hops"), np.array([0, 15]), np.array([0, 2]))
     >>> fit.reshape(4, 4).tolist()
     [[0, 0, 0, 1], [0, 0, 1, 1], [0, 1, 1, 2], [1, 1, 2, 2]]
     """
@@ -472,7 +473,7 @@ def lipschitz_extension(G, idx, vals, *, kind="midpoint", K=None):
     >>> from manifill.mesh.shapes import grid
     >>> from manifill.mesh.graph import mesh_graph
     >>> V, F = grid(5, diagonal="right")
-    >>> x = lipschitz_extension(mesh_graph(V, F), np.array([0, 24]), np.array([0.0, 4.0]))
+    >>> x = lipschitz_extension(mesh_graph(V, F, distance="hops"), np.array([0, 24]), np.array([0.0, 4.0]))
     >>> x.reshape(5, 5)[0].tolist()
     [0.0, 0.5, 1.0, 1.5, 2.0]
     """

@@ -77,6 +77,8 @@ METHODS = [
     Method("manifill gvf-harmonic, tree, hermite", "manifill", _manifill(partition="tree"), "mf tree"),
     Method("manifill gvf-harmonic, cycle, hermite", "manifill", _manifill(partition="cycle"), "mf cycle"),
     Method("manifill gvf-harmonic, delaunay, linear", "manifill", _manifill(curve_values="linear"), "mf linear"),
+    Method("manifill gvf-harmonic, delaunay, monotone", "manifill", _manifill(curve_values="monotone"),
+           "mf monotone"),
     Method("manifill gvf-harmonic, delaunay, gvf", "manifill", _manifill(curve_values="gvf"), "mf gvf curves"),
     Method("manifill harmonic (point constraints)", "manifill", _manifill(method="harmonic"), "mf harmonic"),
     Method("manifill gvf (no harmonic fill)", "manifill", _manifill(method="gvf"), "mf gvf"),

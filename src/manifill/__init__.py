@@ -41,6 +41,7 @@ from .surface.curve_values import CurveValues, values_on_curves
 from .surface.fill import fill_patches
 from .surface.gradual import GradualCheck, check_gradual
 from .surface.harmonic import HarmonicSolver, harmonic
+from .surface.polyharmonic import PolyharmonicSolver, biharmonic
 from .surface.partition import Partition, partition
 from .surface.reconstruct import Reconstruction, reconstruct, reconstruct_surface
 from .surface.surface import Surface
@@ -53,7 +54,8 @@ __all__ = [
     "reconstruct", "Reconstruction", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches",
     # the harmonic problem and the operators
-    "harmonic", "HarmonicSolver", "laplacian", "mass_matrix", "QuadraticSolver", "min_quad_with_fixed",
+    "harmonic", "HarmonicSolver", "biharmonic", "PolyharmonicSolver", "laplacian", "mass_matrix", "QuadraticSolver",
+    "min_quad_with_fixed",
     "mesh_info", "clean_mesh",
     # solids (Steps 7-8)
     "reconstruct_volume", "reconstruct_volume_tets", "reconstruct_volume_mask", "VolumeReconstruction",

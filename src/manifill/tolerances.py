@@ -21,6 +21,10 @@ class Tolerances:
         is rejected ("wrong units?").
     amg_rtol : float
         Relative residual at which the AMG-preconditioned conjugate gradient stops.
+    polyharmonic_rtol : float
+        The same for the biharmonic and k-harmonic energies
+        (:mod:`manifill.surface.polyharmonic`), worse conditioned (4th order), so
+        tighter: the answer then matches a factorisation to about 1e-9 of the range.
     iterate_tol : float
         The paper's averaging iteration stops when the largest change in one sweep
         falls below ``iterate_tol`` times the range of the fixed values.
@@ -59,16 +63,34 @@ class Tolerances:
         Step 4's gradient fits (:mod:`manifill.surface.curve_values`): singular
         values below ``gradient_rcond`` times the largest count as zero; a quadratic
         fit with one is dropped for the linear one.
+    gradient_line_rcond : float
+        Step 4's linear gradient fits (two to seven neighbours, :mod:`manifill.surface.slopes`):
+        a direction whose singular value is below ``gradient_line_rcond`` times the
+        largest (neighbours within about 11 degrees of one line) is left out, so the
+        gradient is exact along that line and zero across it rather than huge.
     grid_count : float
         :func:`manifill.solid.voxelize.voxel_grid` counts ``ceil(side / h - grid_count)``
         voxels per side: a side within ``grid_count`` voxels of a whole number of
         them (round-off in ``side / h``) gets no extra voxel.
+    energy_symmetry : float
+        :class:`manifill.linalg.smoothing.SmoothingFit` refuses an energy ``A`` with
+        ``max |A - A^T| > energy_symmetry * max |A|``.
+    smoothing_leverage : float
+        A GCV denominator ``k - tr H`` below ``smoothing_leverage * k``, or a leverage
+        ``H_ii`` within ``smoothing_leverage`` of 1, makes the score infinite
+        (:mod:`manifill.linalg.smoothing`).
+    bound_rtol : float
+        The bounds' active set (:mod:`manifill.linalg.active_set`): a free value
+        violates a bound by more than ``bound_rtol`` times the field's scale (the
+        largest absolute sample value or finite bound), a multiplier has the wrong
+        sign by more than ``bound_rtol`` times ``max|A| * scale + max|c|``.
     """
 
     weld: float = 1e-12
     degenerate_area: float = 1e-14
     snap: float = 0.05
     amg_rtol: float = 1e-10
+    polyharmonic_rtol: float = 1e-12
     iterate_tol: float = 1e-10
     grid_rtol: float = 1e-10
     norm_tiny: float = 1e-280
@@ -82,7 +104,11 @@ class Tolerances:
     level_tie: float = 1e-6
     tiny: float = 1e-300
     gradient_rcond: float = 1e-8
+    gradient_line_rcond: float = 0.1
     grid_count: float = 1e-9
+    energy_symmetry: float = 1e-10
+    smoothing_leverage: float = 1e-10
+    bound_rtol: float = 1e-10
 
 
 TOL = Tolerances()

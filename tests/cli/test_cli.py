@@ -561,3 +561,29 @@ def test_progress_total_is_the_steps_run(tmp_path, capsys, sphere, bars, method)
     assert code == 0, err
     (bar,) = bars
     assert bar.total == len(bar.steps) and bar.steps[-1] in ("harmonic fill", "gvf")
+
+
+
+def test_energy_methods_with_bounds_and_smoothing(tmp_path, capsys, sphere):
+    """--method biharmonic --bounds samples: the library's bounded result, in the samples' range; bad input exits 2."""
+    s = sphere
+    out_path = tmp_path / "bi.vtu"
+    code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", out_path, "--method", "biharmonic",
+                         "--bounds", "samples")
+    assert code == 0 and "biharmonic fill" in out and "bounded" in out
+    vals = s["vals"][:, 0]
+    r = manifill.reconstruct(s["V"], s["F"], s["idx"], vals, method="biharmonic", bounds="samples")
+    got = meshio.read(out_path).point_data["temp"]
+    np.testing.assert_allclose(got, r.values, rtol=1e-12, atol=1e-12)
+    assert vals.min() <= got.min() and got.max() <= vals.max()
+    code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", out_path, "--method", "harmonic",
+                         "--smoothing", "0.5")
+    assert code == 0 and "smoothing lambda 0.5" in out
+    for extra, words in [(["--method", "biharmonic", "--bounds", "0"], "--bounds"),
+                         (["--method", "harmonic", "--smoothing", "lots"], "--smoothing"),
+                         (["--bounds", "samples"], "energy methods"),
+                         (["--method", "biharmonic", "--bounds", "0,1"], "outside the bounds")]:
+        line = assert_usage_error(*run(capsys, "reconstruct", s["path"], s["samples"], "-o", tmp_path / "x.vtu",
+                                       *extra))
+        assert words in line
+        assert not (tmp_path / "x.vtu").exists()

@@ -242,3 +242,36 @@ def test_equality_rows_need_the_direct_solver_and_beq():
         q.solve([1.0], beq=[1.0, 2.0, 3.0])
     with pytest.raises(SolveError, match="singular"):  # the same row twice
         QuadraticSolver(A, [0], Aeq=sp.csr_array(sp.vstack([Aeq[[0]], Aeq[[0]]])))
+
+
+# ---------------------------------------------------------------------------
+# the pieces the bounds' active set uses: fixing more indices, the equality multipliers
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("solver", ["direct", "amg"])
+def test_fixing_more_indices_is_the_same_reduction(solver):
+    A = graph_laplacian(30, 11)
+    rng = np.random.default_rng(12)
+    idx, extra = np.array([0, 7]), np.array([20, 3, 14])
+    vals = rng.normal(size=5)
+    q = QuadraticSolver(A, idx, solver=solver, tol=1e-13)
+    sub = q.fixing(extra)
+    np.testing.assert_array_equal(sub.idx, np.r_[idx, extra])
+    assert sub.report["unknowns"] == q.report["unknowns"] - 3 and sub.report["solver"] == solver
+    np.testing.assert_allclose(sub.solve(vals), kkt_dense(A, np.r_[idx, extra], vals)[:, 0], rtol=0, atol=1e-9)
+    assert q.report["unknowns"] == 28  # the original is untouched
+
+
+def test_equality_multipliers_make_the_gradient_vanish():
+    rng = np.random.default_rng(13)
+    A = graph_laplacian(30, 13)
+    idx = np.array([0, 29])
+    Aeq = barycentric_rows(30, rng, 3, idx)
+    q = QuadraticSolver(A, idx, Aeq=Aeq)
+    c = rng.normal(size=30)
+    x = q.solve([1.0, -1.0], beq=[0.5, 0.0, 2.0], linear=c)
+    assert q.eq_multipliers.shape == (3, 1)
+    g = A @ x + c + Aeq.T @ q.eq_multipliers[:, 0]
+    assert np.abs(g[q.unknown]).max() <= 1e-9
+    assert QuadraticSolver(A, idx).eq_multipliers is None

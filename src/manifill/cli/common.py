@@ -14,10 +14,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..errors import SampleError, WriteError
+from ..errors import OptionError, SampleError, WriteError
 
-__all__ = ["load", "check_outputs", "write_surface", "levels", "step_bar", "print_time", "pictures", "chosen_field",
-           "surface_outputs", "check_names", "print_ranges", "err"]
+__all__ = ["load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
+           "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err"]
 
 
 def load(args):
@@ -143,6 +143,29 @@ def levels(text):
         return int(text)
     except ValueError:
         raise SampleError(f"--levels {text!r} is neither a count nor a comma-separated list of numbers") from None
+
+
+def bounds_arg(text):
+    """``--bounds``: ``samples`` or ``LO,HI`` (either side may be empty: open)."""
+    if text is None or text == "samples":
+        return text
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return tuple(float(x) if x.strip() else None for x in parts)
+    except ValueError:
+        raise OptionError(f"--bounds {text!r} is neither 'samples' nor LO,HI (e.g. --bounds 0,1)") from None
+
+
+def smoothing_arg(text):
+    """``--smoothing``: a number >= 0 or ``auto``."""
+    if text is None or text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise OptionError(f"--smoothing {text!r} is neither a number nor 'auto' (e.g. --smoothing auto)") from None
 
 
 def step_bar(args, steps):

@@ -59,6 +59,15 @@ def output_args(s):
 
 
 
+def energy_args(s):
+    """--bounds and --smoothing of the energy methods (harmonic, biharmonic, triharmonic)."""
+    s.add_argument("--bounds", default=None, metavar="samples|LO,HI",
+                   help="energy methods: the minimiser within these bounds ('samples': each field's sample range), "
+                        "not a clip")
+    s.add_argument("--smoothing", default=None, metavar="LAMBDA|auto",
+                   help="energy methods: soft constraints with this lambda ('auto': generalised cross-validation)")
+
+
 def pipeline_args(s, *, method_help="default: gvf-harmonic"):
     """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
     s.add_argument("--method", choices=METHODS, default="gvf-harmonic", help=method_help)

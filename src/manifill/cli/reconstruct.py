@@ -1,9 +1,9 @@
 """``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6)."""
 
 from ..surface.reconstruct import STEPS
-from .common import (check_names, levels, load, pictures, print_ranges, print_time, step_bar,
+from .common import (bounds_arg, check_names, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
                      surface_outputs, write_surface)
-from .options import fill_args, output_args, picture_args, pipeline_args, sample_args
+from .options import energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args
 
 __all__ = ["add_parser", "run"]
 
@@ -18,6 +18,7 @@ def add_parser(sub):
     sample_args(s)
     fill_args(s)
     pipeline_args(s)
+    energy_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
     picture_args(s)
@@ -41,7 +42,8 @@ def run(args):
     try:
         r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
                         distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
-                        solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates, progress=bar)
+                        solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates,
+                        bounds=bounds_arg(args.bounds), smoothing=smoothing_arg(args.smoothing), progress=bar)
     finally:
         bar.close()
     X = r.fields()
@@ -74,8 +76,17 @@ def run(args):
     if "harmonic" in rep:
         h = rep["harmonic"]
         its = h.get("iterations")
-        print(f"steps 5-6: harmonic fill, weights={h['weights']}, solver={h['solver']}"
-              + (f", {', '.join(map(str, its))} iterations" if its else ""))
+        what = "steps 5-6: harmonic fill" if args.method == "gvf-harmonic" else f"{args.method} fill (samples fixed)"
+        extra = ""
+        if "bounds" in h:
+            at = sum(h["bounds"]["active_lo"]) + sum(h["bounds"]["active_hi"])
+            extra += f", bounded ({at:,} vertices at a bound)"
+        if "smoothing" in h:
+            lams = h["smoothing"]["lambda"]
+            lam = ", ".join(f"{float(x):.3g}" for x in (lams if hasattr(lams, "__len__") else [lams]))
+            extra += f", smoothing lambda {lam}"
+        print(f"{what}, weights={h.get('weights', args.weights)}, solver={h.get('solver', 'direct')}"
+              + (f", {', '.join(map(str, its))} iterations" if its else "") + extra)
     print_time(args, rep["seconds"])
     print_ranges(X, S, out)
     pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method}")

@@ -8,4 +8,7 @@
 - :mod:`manifill.linalg.amg` - the smoothed-aggregation hierarchy of the ``amg`` backend
 - :mod:`manifill.linalg.gridmg`, :mod:`manifill.linalg.gridlevels` - the voxel geometric multigrid, a
   matrix-free backend for grids
+- :mod:`manifill.linalg.smoothing` - ``SmoothingFit``, ``smooth``: the penalised fit to noisy samples,
+  ``lam`` given or chosen by GCV / leave-one-out
+- :mod:`manifill.linalg.lamsearch` - a log grid and golden-section search of a score over ``lam``
 """

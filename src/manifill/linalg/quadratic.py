@@ -38,10 +38,11 @@ Extension points (the next methods plug in here, without reshaping the above):
   ``beq - Aeq_b vals``) and the KKT system ``[[A_II, Aeq_I^T], [Aeq_I, 0]]``
   (symmetric indefinite) is factorised. Next: a null-space basis for the
   iterative backends.
-- *Bounds* ``lo <= x <= hi`` (active set): an outer loop around
-  :meth:`QuadraticSolver.solve` that moves violated indices into ``idx`` at
-  their bound, rebuilds the reduction, and releases those whose multiplier
-  ``(A x + c)_i`` has the wrong sign.
+- *Bounds* ``lo <= x <= hi`` (``solve(vals, lo=..., hi=...)``): the primal
+  active-set loop of :mod:`manifill.linalg.active_set` around
+  :meth:`QuadraticSolver.solve`; it moves violated indices into ``idx`` at
+  their bound (:meth:`QuadraticSolver.fixing`, the same reduction), and
+  releases those whose multiplier ``(A x + c)_i`` has the wrong sign.
 """
 
 import time
@@ -52,6 +53,7 @@ import scipy.sparse as sp
 from ..errors import OptionError, SampleError, SolveError
 from ..mesh.topology import pattern_components
 from ..validate import as_indices, as_laplacian, as_values, check_option
+from .active_set import MAX_ITERATIONS, as_bounds, solve_bounded
 from .backends import SOLVERS, make_linear_solver
 
 __all__ = ["ON_EMPTY", "QuadraticSolver", "min_quad_with_fixed"]
@@ -112,7 +114,11 @@ class QuadraticSolver:
         largest first), ``negative_weights`` (positive off-diagonal pairs of
         ``A``), ``equality_rows`` (with ``Aeq``), ``solver`` and ``seconds`` (``partition``, ``setup``); after
         each :meth:`solve` also ``seconds["solve"]`` and the backend's
-        ``iterations``.
+        ``iterations``; after a :meth:`solve` with bounds also ``bounds``
+        (see :func:`manifill.linalg.active_set.solve_bounded`).
+    eq_multipliers : (m, p) numpy array or None
+        After a :meth:`solve` with ``Aeq``: the multipliers ``mu`` of the
+        equality rows (``A x + c + Aeq^T mu = 0`` at the unknowns).
 
     Raises
     ------
@@ -148,8 +154,37 @@ class QuadraticSolver:
         A = as_laplacian(A, what=what)
         if Aeq is not None:
             Aeq = self._equality_rows(Aeq, A.shape[0], solver)
-        self._reduce(A, as_indices(idx, A.shape[0], what="idx"), solver, on_empty, iteration, tol, maxiter,
-                     symmetric_pattern, Aeq)
+        self._options = {"solver": solver, "on_empty": on_empty, "iteration": iteration, "tol": tol,
+                         "maxiter": maxiter, "symmetric_pattern": symmetric_pattern}
+        self._reduce(A, as_indices(idx, A.shape[0], what="idx"), Aeq=Aeq, **self._options)
+
+    def fixing(self, extra):
+        """The same problem with the indices ``extra`` fixed too (after ``idx``), reduced and set up anew.
+
+        Parameters
+        ----------
+        extra : (e,) array_like of int
+            Indices among :attr:`unknown`, each listed once.
+
+        Returns
+        -------
+        QuadraticSolver
+            Its ``idx`` is ``[idx, extra]``; same options, backend, ``Aeq``.
+            Costs one reduction and one backend setup (a factorisation for
+            ``direct``).
+
+        Examples
+        --------
+        >>> import scipy.sparse as sp
+        >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(5, 5))
+        >>> QuadraticSolver(A, [0, 4]).fixing([2]).solve([0.0, 0.0, 1.0]).tolist()
+        [0.0, 0.5, 1.0, 0.5, 0.0]
+        """
+        extra = np.asarray(extra, dtype=np.int64).ravel()
+        sub = type(self).__new__(type(self))
+        sub._options = self._options
+        sub._reduce(self.A, np.concatenate([self.idx, extra]), Aeq=self.Aeq, **self._options)
+        return sub
 
     @staticmethod
     def _equality_rows(Aeq, n, solver):
@@ -174,6 +209,7 @@ class QuadraticSolver:
         self.n = n
         self.A = A
         self.Aeq = Aeq
+        self.eq_multipliers = None
         t2 = time.perf_counter()
         ncomp, labels = pattern_components(A, symmetric=symmetric_pattern)
         anchors = labels[self.idx]
@@ -229,8 +265,8 @@ class QuadraticSolver:
             "seconds": {"partition": t3 - t2, "setup": self._solver.setup_seconds},
         }
 
-    def solve(self, vals, *, linear=None, x0=None, beq=None):
-        """The minimiser for the given fixed values.
+    def solve(self, vals, *, linear=None, x0=None, beq=None, lo=None, hi=None, bound_iterations=MAX_ITERATIONS):
+        """The minimiser for the given fixed values (and bounds).
 
         Parameters
         ----------
@@ -244,6 +280,17 @@ class QuadraticSolver:
             (``iterate`` starts from the mean of ``vals`` otherwise).
         beq : (m,) or (m, p) array_like of float
             Right-hand sides of the equality rows (required with ``Aeq``).
+        lo, hi : float or (p,) array_like of float, optional
+            Bounds per field on the solved-for indices, None (or ``-inf`` /
+            ``inf``) for none on that side: the result is then the minimiser
+            of the energy subject to ``lo <= x <= hi`` (a box-constrained QP,
+            :mod:`manifill.linalg.active_set`), not a clip, each field with its
+            own active set; ``report["bounds"]`` gives the bounds, the
+            iterations, the counts at ``lo`` and ``hi`` and the largest KKT
+            residual. Each iteration sets the backend up anew for its fixed
+            set (one factorisation with ``direct``).
+        bound_iterations : int, optional
+            Cap on the active-set iterations per field.
 
         Returns
         -------
@@ -255,11 +302,33 @@ class QuadraticSolver:
         ------
         SampleError
             If ``vals``, ``linear`` or ``x0`` has the wrong shape or NaN or
-            infinite values.
+            infinite values; bounds with NaN, ``lo > hi``, or sample values
+            outside the bounds.
         SolveError
-            If an iterative backend does not converge.
+            If an iterative backend does not converge, or the active set does
+            not settle in ``bound_iterations``.
+
+        Examples
+        --------
+        A constant load on a path with its ends at 0 bulges to 4; bounded by 3:
+
+        >>> import scipy.sparse as sp
+        >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(5, 5))
+        >>> q = QuadraticSolver(A, [0, 4])
+        >>> q.solve([0.0, 0.0], linear=-2 * np.ones(5), hi=3.0).round(12).tolist()
+        [0.0, 2.5, 3.0, 2.5, 0.0]
+        >>> q.report["bounds"]["active_hi"], q.report["bounds"]["iterations"]
+        ([1], [1])
         """
         vals, squeeze = as_values(vals, self.idx.size, what="vals")
+        if lo is not None or hi is not None:
+            t0 = time.perf_counter()
+            lo, hi = as_bounds(lo, hi, vals.shape[1])
+            X, bounds = solve_bounded(self, vals, lo, hi, linear=linear, x0=x0, beq=beq, maxiter=bound_iterations)
+            self.report["bounds"] = bounds
+            self.report["seconds"]["solve"] = time.perf_counter() - t0
+            return X[:, 0] if squeeze else X
+        self.report.pop("bounds", None)
         t0 = time.perf_counter()
         R = -(self._A_Ib @ vals)
         if linear is not None:
@@ -281,6 +350,8 @@ class QuadraticSolver:
             X, info = self._solver.solve(R, guess, scale=np.ptp(vals, axis=0))
         else:
             X, info = self._solver.solve(R, guess)
+        if self.Aeq is not None:
+            self.eq_multipliers = X[self.unknown.size:]
         X = X[:self.unknown.size]
         out = np.full((self.n, vals.shape[1]), np.nan)
         out[self.idx] = vals

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SampleError
+from ..errors import OptionError, SampleError
 from ..linalg.backends import ITERATIONS, SOLVERS
 from ..mesh.graph import DISTANCES
 from ..mesh.laplacian import WEIGHTS
@@ -33,6 +33,7 @@ from ..progress import tick
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, Result
 from ..validate import as_mesh, as_samples, check_option
 from .curve_values import CURVE_VALUES, values_on_curves
+from .energy_fill import ENERGY_METHODS, energy_fill
 from .fill import INITS, fill_patches, gvf_fill, start_values
 from .gradual import check_gradual, violation_message
 from .harmonic import ON_EMPTY
@@ -42,12 +43,14 @@ from .surface import Surface
 
 __all__ = ["METHODS", "STEPS", "INITS", "Reconstruction", "reconstruct", "reconstruct_surface", "check_options"]
 
-METHODS = ("gvf-harmonic", "harmonic", "gvf")
+METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf")
 
 #: The steps each method runs, in order, under the names it passes to ``progress``
 #: (:func:`reconstruct` runs ``graph`` before them; a progress bar's total is their count).
 STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill"),
          "harmonic": ("check", "harmonic fill"),
+         "biharmonic": ("check", "biharmonic fill"),
+         "triharmonic": ("check", "triharmonic fill"),
          "gvf": ("check", "gvf")}
 
 
@@ -150,7 +153,7 @@ class Reconstruction(Result):
 def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
                 distance="length", levels=None, curve_values="hermite", solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
-                tol=None, maxiter=None, progress=None):
+                tol=None, maxiter=None, bounds=None, smoothing=None, sample_weights=None, progress=None):
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
 
     Parameters
@@ -163,10 +166,11 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         Sample vertices.
     vals : (k,) or (k, p) array_like of float
         Sample values, one column per field.
-    method : {'gvf-harmonic', 'harmonic', 'gvf'}, optional
-        The whole pipeline; harmonic with the samples alone fixed; or the
-        gradually varied fit of the whole surface (every vertex but the
-        samples on a level).
+    method : {'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'gvf'}, optional
+        The whole pipeline; harmonic, biharmonic or triharmonic with the
+        samples alone fixed (the k-harmonic energy,
+        :mod:`manifill.surface.energy_fill`); or the gradually varied fit of
+        the whole surface (every vertex but the samples on a level).
     partition : {'delaunay', 'cycle', 'tree'}, optional
         How the curves are drawn (:mod:`manifill.surface.partition`).
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
@@ -201,6 +205,15 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         Seed of ``init='random'``.
     tol, maxiter : optional
         Passed to the solver.
+    bounds : None, 'samples' or (lo, hi), optional
+        Energy methods only: the minimiser subject to these bounds (per field;
+        ``'samples'``: each field's sample range), not a clip.
+    smoothing : None, float >= 0 or 'auto', optional
+        Energy methods only: soft constraints with this lambda (``'auto'``:
+        generalised cross-validation); ``report['harmonic']['smoothing']``
+        gives lambda and the residuals at the samples.
+    sample_weights : (k,) array_like of float, optional
+        Weights of the soft constraints (with ``smoothing``).
     progress : callable, optional
         Called with the name of each step as it starts (e.g.
         :class:`manifill.progress.StepBar`).
@@ -237,8 +250,8 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     seconds["graph"] = time.perf_counter() - t
     r = reconstruct_surface(surface, idx, vals, method=method, partition=partition, weights=weights,
                             levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
-                            iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, progress=progress,
-                            seconds=seconds)
+                            iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds,
+                            smoothing=smoothing, sample_weights=sample_weights, progress=progress, seconds=seconds)
     if squeeze:
         r.values = r.values[:, 0]
     seconds["total"] = time.perf_counter() - t0
@@ -260,7 +273,7 @@ def check_options(method="gvf-harmonic", partition="delaunay", weights="cotan", 
     >>> check_options(method="fast")
     Traceback (most recent call last):
     ...
-    manifill.errors.OptionError: method='fast' is not one of 'gvf-harmonic', 'harmonic', 'gvf'; pass one of those
+    manifill.errors.OptionError: method='fast' is not one of 'gvf-harmonic', 'harmonic', ... pass one of those
     """
     check_option("method", method, METHODS)
     check_option("partition", partition, PARTITIONS)
@@ -275,8 +288,8 @@ def check_options(method="gvf-harmonic", partition="delaunay", weights="cotan", 
 
 def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
                         levels=None, curve_values="hermite", solver="auto", on_empty="error",
-                        iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, progress=None,
-                        seconds=None):
+                        iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None,
+                        smoothing=None, sample_weights=None, progress=None, seconds=None):
     """Steps 1-6 on a Surface and validated samples.
 
     Parameters
@@ -320,6 +333,9 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
     seconds = {} if seconds is None else seconds
     before = sum(seconds.values())
     check_options(method, partition, weights, "length", curve_values, solver, on_empty, iteration, init)
+    if (bounds is not None or smoothing is not None or sample_weights is not None) and method not in ENERGY_METHODS:
+        raise OptionError(f"bounds, smoothing and sample_weights apply to the energy methods "
+                          f"({', '.join(ENERGY_METHODS)}), not to method={method!r}; pick one of those")
     n = len(surface.V)
     report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
@@ -353,6 +369,15 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
         t = time.perf_counter()
         values = gvf_fill(surface, idx, vals, checks, on_empty=on_empty)
         seconds["gvf"] = time.perf_counter() - t
+    elif method in ENERGY_METHODS and (method != "harmonic" or bounds is not None or smoothing is not None):
+        # the samples alone as constraints, on the k-harmonic energy (bounded or smoothed if asked)
+        step = f"{method} fill"
+        tick(progress, step)
+        t = time.perf_counter()
+        values, report["harmonic"] = energy_fill(
+            surface, idx, vals, k=ENERGY_METHODS[method], weights=weights, solver=solver, on_empty=on_empty,
+            bounds=bounds, smoothing=smoothing, sample_weights=sample_weights, tol=tol, maxiter=maxiter)
+        seconds["harmonic"] = time.perf_counter() - t
     else:
         b, bc = idx, vals
         if method == "gvf-harmonic":

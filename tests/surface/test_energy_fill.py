@@ -123,3 +123,16 @@ def test_bad_smoothing_and_weights():
         manifill.reconstruct(V, F, IDX, VALS, method="biharmonic", sample_weights=np.ones(IDX.size))
     with pytest.raises(OptionError, match="not supported"):
         manifill.reconstruct(V, F, IDX, VALS, method="biharmonic", smoothing=1.0, bounds="samples")
+
+
+def test_auto_falls_back_to_a_factorisation_when_cg_stalls():
+    """solver='auto' picks CG for a large biharmonic system; if it stalls, the direct solve answers (reported)."""
+    Vb, Fb = icosphere(5)
+    idx = np.sort(np.random.default_rng(5).choice(len(Vb), 50, replace=False))
+    vals = field(Vb[idx])
+    r = manifill.reconstruct(Vb, Fb, idx, vals, method="biharmonic", maxiter=2)
+    assert "stalled" in r.report["harmonic"]["fallback"] and r.report["harmonic"]["solver"] == "direct"
+    ref = manifill.reconstruct(Vb, Fb, idx, vals, method="biharmonic", solver="direct")
+    np.testing.assert_allclose(r.values, ref.values, atol=1e-12 * np.ptp(vals))
+    with pytest.raises(manifill.SolveError, match="did not reach"):
+        manifill.reconstruct(Vb, Fb, idx, vals, method="biharmonic", solver="amg", maxiter=2)

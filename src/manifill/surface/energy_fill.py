@@ -19,7 +19,7 @@ constraints, not the energy:
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import OptionError, SampleError
+from ..errors import OptionError, SampleError, SolveError
 from ..linalg.quadratic import QuadraticSolver
 from .polyharmonic import PolyharmonicSolver
 
@@ -130,15 +130,28 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         return values, report
     if sample_weights is not None:
         raise OptionError("sample_weights weigh soft constraints; pass smoothing= too, or leave them out")
+    auto = solver == "auto"
     if k > 1:  # the k-harmonic systems' own backend policy and tolerance
         solver, tol, maxiter = PolyharmonicSolver.settings(k, surface.n - idx.size, solver, tol, maxiter)
-    qs = QuadraticSolver(A, idx, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
-                         symmetric_pattern=weights in ("uniform", "cotan"), what="the energy")
-    if lohi is None:
-        X = qs.solve(vals)
-    else:
-        X = qs.solve(vals, lo=lohi[0], hi=lohi[1])
-    report = {key: v for key, v in qs.report.items()}
+
+    def run(backend):
+        qs = QuadraticSolver(A, idx, solver=backend, on_empty=on_empty, tol=tol, maxiter=maxiter,
+                             symmetric_pattern=weights in ("uniform", "cotan"), what="the energy")
+        X = qs.solve(vals) if lohi is None else qs.solve(vals, lo=lohi[0], hi=lohi[1])
+        return X, qs.report
+
+    try:
+        X, rep = run(solver)
+        fallback = None
+    except SolveError as e:
+        # auto picked CG and it stalled (a poorly conditioned bilaplacian, e.g. small parts of a mesh): factorise
+        if not (auto and solver == "amg" and "did not reach" in str(e)):
+            raise
+        X, rep = run("direct")
+        fallback = f"direct (AMG-preconditioned CG stalled: {e})"
+    report = {key: v for key, v in rep.items()}
+    if fallback:
+        report["fallback"] = fallback
     report["weights"] = weights
     report["energy"] = k
     return (X if X.ndim == 2 else X[:, None]), report

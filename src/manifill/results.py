@@ -18,6 +18,8 @@ The mask names live here, at the base of the package, so that results and the fi
 formats of :mod:`manifill.io` use one naming scheme.
 """
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from .errors import SampleError
@@ -97,13 +99,13 @@ def sample_mask(n, idx):
     return mask
 
 
-class Result:
+class Result(ABC):
     """Base of manifill's results (see the module docstring).
 
     A subclass has the attributes ``values`` and ``report``, sets
     :attr:`point_ndim` (or overrides it as a property) and implements
-    :meth:`masks`; :meth:`point_data` follows. :meth:`to_pyvista` and
-    :meth:`to_meshio` raise ``NotImplementedError`` here.
+    :meth:`masks`, :meth:`to_pyvista` and :meth:`to_meshio` (abstract here);
+    :meth:`fields` and :meth:`point_data` follow.
     """
 
     #: Number of leading axes of ``values`` that index points (1 for vertices, 3 for voxels).
@@ -120,6 +122,7 @@ class Result:
         X = self.values
         return X if X.ndim == self.point_ndim + 1 else X[..., None]
 
+    @abstractmethod
     def masks(self):
         """manifill's mask and label arrays of this result, by name (:data:`SAMPLE_MASK`, ...).
 
@@ -127,7 +130,6 @@ class Result:
         -------
         dict of str to numpy array
         """
-        raise NotImplementedError
 
     def point_data(self, names=None):
         """The fields and the masks, named as in every output file.
@@ -151,10 +153,10 @@ class Result:
         data = dict(zip(field_names(names, X.shape[-1]), np.moveaxis(X, -1, 0)))
         return {**data, **self.masks()}
 
+    @abstractmethod
     def to_pyvista(self, names=None):
         """The domain with every field and mask as a pyvista object (needs the ``[viz]`` extra)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def to_meshio(self, names=None):
         """The domain with every field and mask as a ``meshio.Mesh``."""
-        raise NotImplementedError

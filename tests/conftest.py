@@ -292,3 +292,20 @@ def files(folder):
     from pathlib import Path
 
     return sorted(p.relative_to(folder).as_posix() for p in Path(folder).rglob("*"))
+
+
+@pytest.fixture
+def bars(monkeypatch):
+    """Every progress bar a command opens, recording its total and the steps the library told it."""
+    import manifill.progress
+
+    opened = []
+
+    class Recorder(manifill.progress.StepBar):
+        def __init__(self, total, **options):
+            super().__init__(total, **options)
+            self.total = total
+            opened.append(self)
+
+    monkeypatch.setattr(manifill.progress, "StepBar", Recorder)
+    return opened

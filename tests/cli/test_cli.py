@@ -537,23 +537,6 @@ def test_the_command_line_holds_no_numerics():
                 assert name.split(".")[0] not in ("numpy", "scipy"), f"{path.name} imports {name}"
 
 
-@pytest.fixture
-def bars(monkeypatch):
-    """Every progress bar a command opens, recording its total and the steps the library told it."""
-    import manifill.progress
-
-    opened = []
-
-    class Recorder(manifill.progress.StepBar):
-        def __init__(self, total, **options):
-            super().__init__(total, **options)
-            self.total = total
-            opened.append(self)
-
-    monkeypatch.setattr(manifill.progress, "StepBar", Recorder)
-    return opened
-
-
 @pytest.mark.parametrize("method", ["gvf-harmonic", "harmonic", "gvf"])
 def test_progress_total_is_the_steps_run(tmp_path, capsys, sphere, bars, method):
     code, out, err = run(capsys, "reconstruct", sphere["path"], sphere["samples"], "-o", tmp_path / "o.vtu",

@@ -372,23 +372,6 @@ def test_weights_and_solver_reach_the_mask_reconstruction(tmp_path, capsys, monk
     assert code == 0 and "weights" not in seen[-1] and seen[-1]["solver"] == "auto"
 
 
-@pytest.fixture
-def bars(monkeypatch):
-    """Every progress bar a command opens, recording its total and the steps the library told it."""
-    import manifill.progress
-
-    opened = []
-
-    class Recorder(manifill.progress.StepBar):
-        def __init__(self, total, **options):
-            super().__init__(total, **options)
-            self.total = total
-            opened.append(self)
-
-    monkeypatch.setattr(manifill.progress, "StepBar", Recorder)
-    return opened
-
-
 @pytest.mark.parametrize("method", ["gvf-harmonic", "harmonic"])
 @pytest.mark.parametrize("kind", ["voxels", "tets", "tet mesh", "mask"])
 def test_progress_total_is_the_steps_run(tmp_path, capsys, sphere, bars, method, kind):

@@ -76,7 +76,7 @@ def test_bounds_as_a_pair_and_refusals():
     assert lo - 1e-12 <= r.values.min() and r.values.max() <= hi + 1e-12
     with pytest.raises(SampleError, match="outside the bounds"):
         manifill.reconstruct(V, F, IDX, VALS, method="biharmonic", bounds=(0.0, 0.1))
-    with pytest.raises(SampleError, match="empty"):
+    with pytest.raises(SampleError, match="exceeds the upper bound"):
         as_bounds((1.0, 0.0), VALS[:, None])
     with pytest.raises(OptionError, match="energy methods"):
         manifill.reconstruct(V, F, IDX, VALS, bounds="samples")  # the paper's pipeline: not an energy method

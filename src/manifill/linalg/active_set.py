@@ -40,7 +40,7 @@ from scipy.sparse.csgraph import maximum_bipartite_matching
 from ..errors import SampleError, SolveError
 from ..tolerances import TOL
 
-__all__ = ["MAX_ITERATIONS", "as_bounds", "solve_bounded"]
+__all__ = ["MAX_ITERATIONS", "as_bounds", "solve_bounded", "check_samples"]
 
 #: Default cap on the active-set iterations (re-solves) of one field.
 MAX_ITERATIONS = 100
@@ -94,7 +94,7 @@ def as_bounds(lo, hi, p):
     return lo, hi
 
 
-def _check_samples(vals, lo, hi):
+def check_samples(vals, lo, hi):
     """Refuse sample values outside their field's bounds (the problem then has no feasible point)."""
     out = (vals < lo) | (vals > hi)
     if out.any():
@@ -151,7 +151,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     >>> X[:, 0].round(12).tolist(), rep["active_hi"]
     ([0.0, 2.0, 2.0, 2.0, 0.0], [3])
     """
-    _check_samples(vals, lo, hi)
+    check_samples(vals, lo, hi)
     n, p = q.n, vals.shape[1]
     X = q.solve(vals, linear=linear, x0=x0, beq=beq)
     X = X[:, None] if X.ndim == 1 else X.copy()

@@ -19,7 +19,9 @@ constraints, not the energy:
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import OptionError, SampleError, SolveError
+from ..errors import OptionError, SolveError
+from ..linalg.active_set import as_bounds as bounds_per_field
+from ..linalg.active_set import check_samples
 from ..linalg.quadratic import QuadraticSolver
 from .polyharmonic import PolyharmonicSolver
 
@@ -58,28 +60,17 @@ def as_bounds(bounds, vals):
     """
     if bounds is None:
         return None
-    p = vals.shape[1]
     if isinstance(bounds, str):
         if bounds != "samples":
             raise OptionError(f"bounds={bounds!r} is not 'samples' or a (lo, hi) pair; pass one of those")
         return vals.min(axis=0).astype(np.float64), vals.max(axis=0).astype(np.float64)
     try:
         lo, hi = bounds
-        lo = np.broadcast_to(np.asarray(-np.inf if lo is None else lo, dtype=np.float64), (p,)).copy()
-        hi = np.broadcast_to(np.asarray(np.inf if hi is None else hi, dtype=np.float64), (p,)).copy()
     except (TypeError, ValueError):
-        raise OptionError(f"bounds must be 'samples' or (lo, hi) with scalars or {p} values per side; "
-                          f"got {bounds!r}") from None
-    if np.isnan(lo).any() or np.isnan(hi).any():
-        raise OptionError("bounds contain NaN; pass numbers, or None for an open side")
-    if (lo > hi).any():
-        j = int(np.flatnonzero(lo > hi)[0])
-        raise SampleError(f"bounds of field {j} are empty (lo {lo[j]:g} > hi {hi[j]:g}); swap or widen them")
-    out = (vals < lo) | (vals > hi)
-    if out.any():
-        i, j = (int(a[0]) for a in np.nonzero(out))
-        raise SampleError(f"{int(out.sum())} sample values lie outside the bounds (e.g. {vals[i, j]:g} of field {j} "
-                          f"outside [{lo[j]:g}, {hi[j]:g}]); widen the bounds or use bounds='samples'")
+        raise OptionError(f"bounds must be 'samples' or a (lo, hi) pair; got {bounds!r}") from None
+    # the solve core's own checks, here before any set-up: shapes, NaN, lo <= hi, samples inside
+    lo, hi = bounds_per_field(lo, hi, vals.shape[1])
+    check_samples(vals, lo, hi)
     return lo, hi
 
 

@@ -18,7 +18,8 @@ from pathlib import Path
 
 from . import accuracy, speed
 
-PACKAGES = ("numpy", "scipy", "pyamg", "libigl", "manifill", "meshio", "pyvista", "matplotlib")
+PACKAGES = ("numpy", "scipy", "pyamg", "libigl", "manifill", "meshio", "pyvista", "matplotlib", "potpourri3d",
+            "mne")
 
 
 def versions():
@@ -44,17 +45,24 @@ def intro(args, argv, started, elapsed):
              "- Versions: " + ", ".join(f"{k} {val}" for k, val in v.items()), "",
              "What was run:", ""]
     if args.command in ("accuracy", "all"):
-        lines += ["- **Accuracy**: known fields on an icosphere (smooth, and a sharp step), and fields of the "
-                  "geodesic distance on non-convex surfaces (a flat U-shaped strip, pyvista's airplane and ant); "
-                  "k random samples; every manifill method and partition beside libigl's harmonic and biharmonic "
-                  "interpolation, SciPy's thin-plate-spline RBF on the positions and the geodesically nearest "
-                  "sample. Geodesic distances: `igl.exact_geodesic` (exact, MMP) on the airplane and the ant; the "
+        lines += ["- **Accuracy**: known fields on an icosphere (smooth, a sharp step, the smooth field from noisy "
+                  "samples, and a rough real field: the luminance of pyvista's shipped Earth image), fields of the "
+                  "geodesic distance on non-convex surfaces (a flat U-shaped strip, pyvista's airplane and ant), and "
+                  "the potential of three current dipoles on a head-like surface sampled at the electrodes of MNE's "
+                  "shipped EEG montages (k = the montage's channels); "
+                  "k random samples elsewhere; every manifill method and partition beside libigl's harmonic and "
+                  "biharmonic interpolation, SciPy's thin-plate-spline RBF on the positions, the geodesically "
+                  "nearest sample, potpourri3d's vector heat `extend_scalar`, pyvista's Gaussian-kernel "
+                  "`interpolate` and, on the head, MNE's spherical spline. Geodesic distances: `igl.exact_geodesic` "
+                  "(exact, MMP) on the airplane and the ant; the "
                   "U strip's in closed form (exact planar distance; on a coarse copy it agrees with "
                   "`igl.exact_geodesic` on the mesh to about 1-2 % of the largest distance, the mesh path being "
                   "longer where the lattice cuts the inner bend). The airplane: its largest component only (the "
                   "fuselage). The ant: all 15 components, with a sample in every component first whenever k >= 15. "
                   "manifill runs with its defaults apart from the option named in each row (cotangent weights, "
-                  "`solver='auto'`); the peers as described in `bench/peers.py`."]
+                  "`solver='auto'`); the peers as described in `bench/peers.py`, the cases in `bench/fields.py` and "
+                  "`bench/fields_more.py`. The benchmark-only peers install with `pip install -e .[bench]`; a "
+                  "missing one is a row \"not installed\"."]
     if args.command in ("speed", "scaling", "all"):
         lines += ["- **Speed and scaling**: icospheres of growing size, 100 samples; `manifill.reconstruct` per "
                   "step beside `igl.harmonic` on the same fixed set, and beside the point-constraint peers; peak "
@@ -83,6 +91,8 @@ def main(argv=None):
     ap.add_argument("command", choices=("accuracy", "speed", "scaling", "all"))
     ap.add_argument("--smoke", action="store_true", help="tiny meshes, few sizes: seconds, for the tests")
     ap.add_argument("--out", default="docs", help="folder for benchmarks.md and benchmarks/*.png (default: docs)")
+    ap.add_argument("--cases", default=None,
+                    help="accuracy: comma-separated case keys to run (default: all), e.g. head-eeg,sphere-noisy")
     args = ap.parse_args(argv)
 
     started = datetime.datetime.now()
@@ -98,7 +108,7 @@ def main(argv=None):
     body = []
     if args.command in ("accuracy", "all"):
         log("accuracy:")
-        acc = accuracy.run_accuracy(args.smoke, log=log)
+        acc = accuracy.run_accuracy(args.smoke, log=log, only=args.cases.split(",") if args.cases else None)
         for p in accuracy.plot(acc, png):
             log(f"  wrote {p}")
         body += accuracy.markdown(acc, "benchmarks")

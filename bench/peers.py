@@ -11,19 +11,47 @@ peers:
   coordinate is dropped, as the polynomial part would be singular);
 - the nearest sample by geodesic distance: one multi-source Dijkstra on the
   mesh graph with edge-length weights (``manifill.mesh.graph``), every vertex
-  takes the value of the sample it reaches first.
+  takes the value of the sample it reaches first;
+- potpourri3d's vector heat method, ``MeshVectorHeatSolver(V, F).extend_scalar(idx, vals)``
+  (Sharp, Soliman and Crane 2019: each vertex gets the value of the nearest
+  sample by the diffused geodesic distance, smoothly blended);
+- pyvista's Gaussian-kernel ``DataSet.interpolate`` from the sample points to
+  the mesh (a point-cloud kernel average, not an interpolant), with the radius
+  set from the samples' spacing (:func:`gaussian_kernel`);
+- MNE-Python's spherical spline (Perrin et al. 1989, the interpolation of
+  ``interpolate_bads``), on the head case only (:func:`mne_spline`).
+
+Peers that are benchmark-only dependencies (potpourri3d, mne) are imported
+inside their functions; a missing one makes its row "not installed"
+(:class:`Skip`), never a crash. So does a method that does not apply to a case
+(``Method.cases``).
+
+manifill's rows call ``reconstruct`` with the options in their names (``smoothing='auto'``: lambda by
+generalised cross-validation; ``method='auto'``: cross-validation of the candidates); a row whose method or
+option manifill does not offer (yet) shows the error as its failure reason.
 """
 
 import numpy as np
 
-__all__ = ["METHODS", "Method", "run"]
+__all__ = ["METHODS", "Method", "Skip", "run"]
+
+
+class Skip(Exception):
+    """A method that cannot run here (not installed, or not for this case): a note, not a failure."""
 
 
 class Method:
-    """A named reconstruction method."""
+    """A named reconstruction method.
 
-    def __init__(self, name, family, fn, short):
-        self.name, self.family, self.fn, self.short = name, family, fn, short
+    ``cases``: the case keys it runs on (None: every case); ``smoke``: the case
+    keys it runs on under ``--smoke`` (None: the same); ``ks``: the random-sample
+    k it runs at in the full run (None: all; fixed layouts always run), for
+    the slow ones.
+    """
+
+    def __init__(self, name, family, fn, short, cases=None, smoke=None, ks=None):
+        self.name, self.family, self.fn, self.short, self.cases = name, family, fn, short, cases
+        self.smoke, self.ks = smoke, ks
 
     def __repr__(self):
         return f"Method({self.name!r})"
@@ -72,6 +100,96 @@ def nearest_geodesic(V, F, idx, vals):
     return vals[root]
 
 
+def _need(module):
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise Skip(f"not installed ({module}: pip install {PIP.get(module, module)})") from exc
+
+
+PIP = {"potpourri3d": "potpourri3d", "mne": "mne", "pyvista": "pyvista"}
+
+
+def vector_heat(V, F, idx, vals):
+    """potpourri3d's ``MeshVectorHeatSolver(V, F).extend_scalar(idx, vals)``."""
+    pp3d = _need("potpourri3d")
+    try:
+        solver = pp3d.MeshVectorHeatSolver(np.ascontiguousarray(V, dtype=np.float64),
+                                           np.ascontiguousarray(F, dtype=np.int64))
+    except RuntimeError as exc:  # geometry-central's assertion: keep its reason, drop the source path
+        raise RuntimeError("geometry-central: " + str(exc).rsplit(" - ", 1)[-1]) from exc
+    return solver.extend_scalar(np.ascontiguousarray(idx, dtype=np.int64), np.ascontiguousarray(vals, np.float64))
+
+
+GAUSS_RADIUS, GAUSS_SHARPNESS = 3.0, 3.0  # the best of the settings tried (gaussian_kernel's docstring)
+
+
+def sample_spacing(P):
+    """Mean distance from each sample point to its nearest other sample."""
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(P).query(P, k=2)
+    return float(d[:, 1].mean())
+
+
+def gaussian_kernel(V, F, idx, vals, radius=GAUSS_RADIUS, sharpness=GAUSS_SHARPNESS):
+    """pyvista's ``interpolate``: radius ``radius`` x the samples' mean nearest-neighbour spacing.
+
+    VTK's Gaussian kernel weighs a sample at distance ``r`` by
+    ``exp(-(sharpness r / R)^2)`` over the samples within ``R``; a vertex with
+    none within ``R`` takes the closest sample (``strategy='closest_point'``).
+
+    The rule: the kernel's width ``R / sharpness`` is the samples' spacing
+    ``d``, its support ``R = 3 d``. Tried on the smoke cases (sphere-smooth,
+    u-strip, airplane; k = 10, 30): (R, sharpness) = (d, 1), (1.5 d, 1),
+    (2 d, 1), (2 d, 2), (3 d, 2), (3 d, 3), (3 d, 4.5), (4 d, 4); (3 d, 3) had
+    the lowest rel. RMSE (or tied with (4 d, 4): a wider support no longer
+    matters) on 4 of the 6 (case, k) and was within 1.25x of the best on the
+    other two; that is the row.
+    """
+    pv = _need("pyvista")
+    R = radius * sample_spacing(V[idx])
+    cloud = pv.PolyData(np.ascontiguousarray(V[idx], dtype=np.float64))
+    cloud.point_data["u"] = np.asarray(vals, dtype=np.float64)
+    faces = np.column_stack([np.full(len(F), 3), F]).astype(np.int64).ravel()
+    mesh = pv.PolyData(np.ascontiguousarray(V, dtype=np.float64), faces)
+    out = mesh.interpolate(cloud, sharpness=sharpness, radius=R, strategy="closest_point")
+    return np.asarray(out.point_data["u"], dtype=np.float64)
+
+
+def mne_spline(V, F, idx, vals, alpha=1e-5):
+    """MNE's spherical spline from the sample vertices to every vertex (``interpolate_bads``' interpolation).
+
+    ``mne.channels.interpolation._make_interpolation_matrix(P[idx] - o, P - o, alpha=1e-5)``, a private
+    helper of MNE (the matrix ``interpolate_bads`` and the public ``Evoked.interpolate_to(montage,
+    method='spline')`` build; ``alpha = 1e-5`` is ``interpolate_bads``' regularisation, so the spline
+    smooths slightly and does not pass exactly through the samples). ``o`` is the least-squares sphere
+    of the sample positions (``origin='auto'`` fits the head's digitisation, here the sensors). The
+    public route ``interpolate_to`` with the samples as channels and every vertex as the target montage
+    gives the same values (checked: difference 0.0 at 10k vertices) but spends most of its time building
+    a 41k-channel ``Info`` (30 s per call at 41k vertices against under 1 s), which would distort the
+    time column. With 41k-vertex heads and the three montages the regularised spline misses the samples
+    by 20-30 % of their range and the exact one (:func:`mne_spline_exact`, a second row) does not, so both
+    are shown.
+    """
+    _need("mne")
+    from mne.channels.interpolation import _make_interpolation_matrix
+
+    from .fields_more import fit_sphere
+
+    P = np.asarray(V, dtype=np.float64)
+    origin, _ = fit_sphere(P[idx])
+    M = _make_interpolation_matrix(P[idx] - origin, P - origin, alpha=alpha)
+    return M @ np.asarray(vals, dtype=np.float64)
+
+
+def mne_spline_exact(V, F, idx, vals):
+    """:func:`mne_spline` without regularisation (``alpha=None``): through the samples exactly."""
+    return mne_spline(V, F, idx, vals, alpha=None)
+
+
 METHODS = [
     Method("manifill gvf-harmonic, delaunay, hermite (default)", "manifill", _manifill(), "mf default"),
     Method("manifill gvf-harmonic, tree, hermite", "manifill", _manifill(partition="tree"), "mf tree"),
@@ -85,10 +203,26 @@ METHODS = [
     Method("manifill biharmonic (point constraints)", "manifill", _manifill(method="biharmonic"), "mf biharmonic"),
     Method("manifill biharmonic, bounds=samples", "manifill", _manifill(method="biharmonic", bounds="samples"),
            "mf bounded biharmonic"),
+    Method("manifill gvf-harmonic, bounds=samples", "manifill", _manifill(bounds="samples"), "mf bounded default"),
+    Method("manifill triharmonic (point constraints)", "manifill", _manifill(method="triharmonic"),
+           "mf triharmonic"),
+    Method("manifill harmonic, smoothing=auto", "manifill", _manifill(method="harmonic", smoothing="auto"),
+           "mf harmonic smooth"),
+    Method("manifill biharmonic, smoothing=auto", "manifill", _manifill(method="biharmonic", smoothing="auto"),
+           "mf biharmonic smooth"),
+    Method("manifill rbf", "manifill", _manifill(method="rbf"), "mf rbf"),
+    # auto cross-validates 7 candidates over 5 folds (bounded biharmonic among them): about 40 fits per call, so in
+    # the full run it runs at k = 100 only (the targets' k), with both seeds; under --smoke on sphere-smooth only
+    Method("manifill auto", "manifill", _manifill(method="auto"), "mf auto", smoke=("sphere-smooth",), ks=(100,)),
     Method("libigl harmonic (k=1, points)", "peer", _igl_harmonic(1), "igl harmonic"),
     Method("libigl biharmonic (k=2, points)", "peer", _igl_harmonic(2), "igl biharmonic"),
     Method("SciPy RBF thin-plate spline (xyz)", "peer", rbf_tps, "RBF TPS"),
     Method("nearest sample (geodesic, Dijkstra)", "peer", nearest_geodesic, "nearest"),
+    Method("potpourri3d vector heat extend_scalar", "peer", vector_heat, "vector heat"),
+    Method("pyvista Gaussian kernel interpolate", "peer", gaussian_kernel, "pv gaussian"),
+    Method("MNE spherical spline (interpolate_bads, reg 1e-5)", "peer", mne_spline, "MNE spline",
+           cases=("head-eeg",)),
+    Method("MNE spherical spline, reg 0 (exact)", "peer", mne_spline_exact, "MNE spline exact", cases=("head-eeg",)),
 ]
 
 
@@ -102,6 +236,8 @@ def one_line(exc):
 def run(method, V, F, idx, vals):
     """``(values, seconds, None)``, or ``(None, seconds, reason)`` when the method fails.
 
+    :class:`Skip` (not installed) propagates: the caller marks the row, it is no failure.
+
     Non-finite output counts as a failure (libigl returns NaN, or nothing
     useful, where a component has no constraint).
     """
@@ -110,6 +246,8 @@ def run(method, V, F, idx, vals):
     t0 = time.perf_counter()
     try:
         x = np.asarray(method.fn(V, F, idx, vals), dtype=np.float64).ravel()
+    except Skip:
+        raise
     except Exception as exc:  # a failing method is a result, not a crash
         return None, time.perf_counter() - t0, f"{type(exc).__name__}: {one_line(exc)}"
     sec = time.perf_counter() - t0

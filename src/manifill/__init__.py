@@ -37,10 +37,12 @@ from .solid.reconstruct_volume import (VolumeReconstruction, reconstruct_volume,
                                        reconstruct_volume_tets)
 from .solid.tetrahedralize import tetrahedralize
 from .solid.voxelize import voxelize
+from .surface.crossval import CrossValidation, cross_validate
 from .surface.curve_values import CurveValues, values_on_curves
 from .surface.fill import fill_patches
 from .surface.gradual import GradualCheck, check_gradual
 from .surface.harmonic import HarmonicSolver, harmonic
+from .surface.locate import SurfacePoints, locate_points
 from .surface.polyharmonic import PolyharmonicSolver, biharmonic
 from .surface.partition import Partition, partition
 from .surface.reconstruct import Reconstruction, reconstruct, reconstruct_surface
@@ -52,7 +54,8 @@ __all__ = [
     "ResourceError",
     # surfaces: the pipeline (Steps 1-6) and its steps
     "reconstruct", "Reconstruction", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
-    "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches",
+    "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
+    "CrossValidation", "locate_points", "SurfacePoints",
     # the harmonic problem and the operators
     "harmonic", "HarmonicSolver", "biharmonic", "PolyharmonicSolver", "laplacian", "mass_matrix", "QuadraticSolver",
     "min_quad_with_fixed",

@@ -79,11 +79,28 @@ class Tolerances:
         A GCV denominator ``k - tr H`` below ``smoothing_leverage * k``, or a leverage
         ``H_ii`` within ``smoothing_leverage`` of 1, makes the score infinite
         (:mod:`manifill.linalg.smoothing`).
+    smoothing_null : float
+        :class:`manifill.linalg.smoothing.SmoothingFit`: a generalised eigenvalue
+        ``theta`` (in ``[0, 1]``) below ``smoothing_null`` is the energy's null space
+        (the constants) seen through rounding, and set to 0, so that no lambda damps it.
     bound_rtol : float
         The bounds' active set (:mod:`manifill.linalg.active_set`): a free value
         violates a bound by more than ``bound_rtol`` times the field's scale (the
         largest absolute sample value or finite bound), a multiplier has the wrong
         sign by more than ``bound_rtol`` times ``max|A| * scale + max|c|``.
+    affine_span : float
+        The thin-plate RBF (:mod:`manifill.surface.rbf`) works in the affine span of the
+        positions: directions whose singular value (of the centred, unit-scaled
+        positions) is below ``affine_span`` times the largest are dropped (a flat mesh
+        is two-dimensional; samples on one line are one-dimensional).
+    bary_vertex : float
+        A closest surface point (:func:`manifill.surface.locate.locate_points`) with a
+        barycentric coordinate within ``bary_vertex`` of 1 sits at that vertex; coordinates
+        below it are 0 (the point is on the opposite edge).
+    point_rank : float
+        The rows of points inside faces (barycentric constraints) are independent when
+        the smallest singular value of each coupled block is above ``point_rank`` times
+        its largest (:mod:`manifill.surface.samples`).
     """
 
     weld: float = 1e-12
@@ -108,7 +125,11 @@ class Tolerances:
     grid_count: float = 1e-9
     energy_symmetry: float = 1e-10
     smoothing_leverage: float = 1e-10
+    smoothing_null: float = 1e-13
     bound_rtol: float = 1e-10
+    bary_vertex: float = 1e-12
+    point_rank: float = 1e-10
+    affine_span: float = 1e-9
 
 
 TOL = Tolerances()

@@ -564,7 +564,7 @@ def test_energy_methods_with_bounds_and_smoothing(tmp_path, capsys, sphere):
     assert code == 0 and "smoothing lambda 0.5" in out
     for extra, words in [(["--method", "biharmonic", "--bounds", "0"], "--bounds"),
                          (["--method", "harmonic", "--smoothing", "lots"], "--smoothing"),
-                         (["--bounds", "samples"], "energy methods"),
+                         (["--smoothing", "0.5"], "energy methods"),
                          (["--method", "biharmonic", "--bounds", "0,1"], "outside the bounds")]:
         line = assert_usage_error(*run(capsys, "reconstruct", s["path"], s["samples"], "-o", tmp_path / "x.vtu",
                                        *extra))

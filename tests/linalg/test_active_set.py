@@ -286,3 +286,102 @@ def test_property_kkt_and_the_reference_qp(problem):
     assert_kkt(A, idx, vals, c, lo, hi, x)
     ref = reference_qp(A, idx, vals, c, lo, hi)
     np.testing.assert_allclose(x, ref, rtol=0, atol=1e-8 * max(1.0, np.abs(ref).max()))
+
+
+# --- the active set always settles (issue 12): primal-dual steps, then a monotone loop; reuse across faces ---
+
+
+def sphere_step(level, k, seed):
+    """The accuracy benchmark's sharp step on an icosphere and its bilaplacian (Voronoi mass), k samples."""
+    from manifill.linalg.energies import polyharmonic_energy
+
+    V, F = icosphere(level)
+    V = V / np.abs(V).max()
+    A = polyharmonic_energy(laplacian(V, F), mass_matrix(V, F, kind="voronoi"), 2)
+    f = ((V[:, 0] + 2 * V[:, 1] + 2 * V[:, 2]) / 3 > 0.2).astype(float)
+    idx = np.sort(np.random.default_rng([seed, k]).choice(V.shape[0], k, replace=False))
+    return sp.csr_array(A), idx, f[idx]
+
+
+def old_loop_iterations(A, idx, vals, lo, hi, cap):
+    """The loop before issue 12's fix, in brief: fix every violator, else release every wrong-signed index."""
+    q = QuadraticSolver(A, idx)
+    x = q.solve(vals)
+    free = q.unknown
+    side = np.zeros(A.shape[0], dtype=np.int8)
+    tol = 1e-10
+    for it in range(cap):
+        out = (side[free] == 0) & ((x[free] < lo - tol) | (x[free] > hi + tol))
+        if out.any():
+            side[free[out]] = np.where(x[free[out]] < lo, -1, 1)
+        else:
+            g = A @ x
+            wrong = ((side < 0) & (g < -tol)) | ((side > 0) & (g > tol))
+            if not wrong.any():
+                return it
+            side[wrong] = 0
+        W = np.flatnonzero(side)
+        x = q.fixing(W).solve(np.concatenate([vals, np.where(side[W] > 0, hi, lo)]))
+    return cap
+
+
+def test_a_step_that_chased_its_tail_settles_at_the_kkt_point():
+    # 5 samples of a step on 642 vertices: the old loop took 22 re-solves (fix all violators, release all
+    # wrong-signed: the moves undo each other); the primal-dual steps on the peaks of the violation take 8
+    A, idx, vals = sphere_step(3, 5, 21)
+    lo, hi = vals.min(), vals.max()
+    assert old_loop_iterations(A, idx, vals, lo, hi, 100) >= 20
+    q = QuadraticSolver(A, idx)
+    x = q.solve(vals, lo=lo, hi=hi)
+    rep = q.report["bounds"]
+    assert rep["iterations"][0] <= 12 and rep["setups"] == rep["iterations"]
+    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)
+    np.testing.assert_allclose(x, reference_qp(A, idx, vals, np.zeros(A.shape[0]), lo, hi), rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("seed", [1, 18, 21])
+def test_the_monotone_loop_alone_settles_with_falling_energy(seed):
+    # the finite rule by itself (the fallback when a primal-dual face repeats): every feasible face minimiser
+    # has a lower energy than the one before, and the end is the KKT point
+    from manifill.linalg import active_set
+
+    A, idx, vals = sphere_step(3, 5, seed)
+    lo, hi = vals.min(), vals.max()
+    q = QuadraticSolver(A, idx)
+    faces = active_set._Faces(q, vals, lo, hi, np.zeros(A.shape[0]))
+    energies = []
+    solve = faces.solve
+
+    def recording(side, x0, beq=None):
+        x, mu = solve(side, x0, beq)
+        free = q.unknown[side == 0]
+        if x[free].min() >= lo - 1e-10 and x[free].max() <= hi + 1e-10:  # a feasible face minimiser
+            energies.append(faces.energy(x))
+        return x, mu
+
+    faces.solve = recording
+    y = q.solve(vals)
+    x, solves, active, at_hi = active_set._monotone(faces, y, np.zeros(q.unknown.size, np.int8), 0, 1e-10, 1e-10,
+                                                    200, 0)
+    x[q.unknown] = np.clip(x[q.unknown], lo, hi)
+    assert solves >= 3 and len(energies) >= 2
+    assert all(b < a for a, b in zip(energies, energies[1:]))
+    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)
+    np.testing.assert_allclose(x, reference_qp(A, idx, vals, np.zeros(A.shape[0]), lo, hi), rtol=0, atol=1e-8)
+
+
+def test_reusing_the_hierarchy_gives_the_fresh_setups_answer():
+    # AMG: CG on every face's system preconditioned by the unbounded hierarchy restricted to the free set
+    # (no set-up) reaches the same minimiser as a new hierarchy per face
+    from manifill.linalg.active_set import solve_bounded
+
+    A, idx, vals = sphere_step(3, 8, 2)
+    lo, hi = np.array([vals.min()]), np.array([vals.max()])
+    q = QuadraticSolver(A, idx, solver="amg", tol=1e-13, maxiter=5000)
+    Xr, rr = solve_bounded(q, vals[:, None], lo, hi, reuse=True)
+    Xf, rf = solve_bounded(q, vals[:, None], lo, hi, reuse=False)
+    assert rr["setups"] == [0] and rr["cg_iterations"][0] > 0 and rf["setups"] == rf["iterations"]
+    np.testing.assert_allclose(Xr, Xf, rtol=0, atol=1e-8)
+    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo[0], hi[0], Xr[:, 0], rtol=1e-8)
+    xd = QuadraticSolver(A, idx, solver="direct").solve(vals, lo=lo, hi=hi)
+    np.testing.assert_allclose(Xr[:, 0], xd, rtol=0, atol=1e-8)

@@ -79,7 +79,7 @@ def test_bounds_as_a_pair_and_refusals():
     with pytest.raises(SampleError, match="exceeds the upper bound"):
         as_bounds((1.0, 0.0), VALS[:, None])
     with pytest.raises(OptionError, match="energy methods"):
-        manifill.reconstruct(V, F, IDX, VALS, bounds="samples")  # the paper's pipeline: not an energy method
+        manifill.reconstruct(V, F, IDX, VALS, smoothing=0.1)  # the paper's pipeline has no soft constraints
     with pytest.raises(OptionError, match="'samples'"):
         manifill.reconstruct(V, F, IDX, VALS, method="biharmonic", bounds="range")
 
@@ -136,3 +136,29 @@ def test_auto_falls_back_to_a_factorisation_when_cg_stalls():
     np.testing.assert_allclose(r.values, ref.values, atol=1e-12 * np.ptp(vals))
     with pytest.raises(manifill.SolveError, match="did not reach"):
         manifill.reconstruct(Vb, Fb, idx, vals, method="biharmonic", solver="amg", maxiter=2)
+
+
+@pytest.mark.parametrize("weights", ["cotan", "uniform"])
+def test_the_pipeline_with_bounds_projects_the_curves_and_fills_within_them(weights):
+    """gvf-harmonic with bounds: Hermite curve values projected onto the bounds, then the bounded harmonic fill.
+
+    The fill is the Dirichlet problem's bounded minimiser with the projected curve values fixed: where the free
+    fill already lies within the bounds (the maximum principle), the two agree exactly.
+    """
+    from manifill.surface.fill import fill_patches
+    from manifill.surface.surface import Surface
+
+    free = manifill.reconstruct(V, F, IDX, VALS, weights=weights)
+    assert free.report["overshoot"] > 1e-3  # Hermite curves overshoot here: the bounds have work to do
+    r = manifill.reconstruct(V, F, IDX, VALS, weights=weights, bounds="samples")
+    lo, hi = VALS.min(), VALS.max()
+    assert lo - 1e-12 <= r.values.min() and r.values.max() <= hi + 1e-12 and r.report["overshoot"] <= 1e-12
+    assert r.report["bounds"]["clipped_curve_values"] > 0
+    np.testing.assert_allclose(r.values[IDX], VALS, rtol=0, atol=1e-12)
+    curve = np.flatnonzero(r.on_curve)
+    np.testing.assert_allclose(r.values[curve], np.clip(free.values[curve], lo, hi), rtol=0, atol=1e-12)
+    x, _ = fill_patches(Surface.from_mesh(V, F), curve, r.values[curve], weights=weights, solver="direct")
+    if lo - 1e-12 <= x.min() and x.max() <= hi + 1e-12:
+        np.testing.assert_allclose(r.values, x, rtol=0, atol=1e-9 * np.ptp(VALS))
+    with pytest.raises(SampleError, match="outside the bounds"):
+        manifill.reconstruct(V, F, IDX, VALS, bounds=(0.0, 0.1))

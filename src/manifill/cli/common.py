@@ -20,8 +20,11 @@ __all__ = ["load", "check_outputs", "write_surface", "levels", "bounds_arg", "sm
            "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err"]
 
 
-def load(args):
+def load(args, keep_points=False):
     """Read mesh and samples (checked against the mesh's vertex numbering), optionally cleaning the mesh first.
+
+    ``keep_points``: samples given as positions keep them (``S.points``), for the
+    energy methods, which locate them on the surface.
 
     Returns
     -------
@@ -35,7 +38,8 @@ def load(args):
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
     # vertex indices refer to the file's numbering, so samples are read against it
-    read = dict(duplicates=args.duplicates, max_distance=args.max_snap, vertex_numbering=mesh.vertex_numbering)
+    read = dict(duplicates=args.duplicates, max_distance=args.max_snap, vertex_numbering=mesh.vertex_numbering,
+                keep_points=keep_points)
     S = read_samples(args.samples, V, **read)
     if args.clean:
         n0 = len(V)

@@ -23,7 +23,8 @@ def sample_args(s):
     s.add_argument("--duplicates", choices=("error", "mean"), default="error",
                    help="two samples on one vertex with different values: error (default) or average")
     s.add_argument("--max-snap", type=float, default=None,
-                   help="largest accepted distance from a sample position to its vertex "
+                   help="largest accepted distance from a sample position to its vertex (to the surface for "
+                        "the energy methods, which constrain the positions exactly) "
                         "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
     s.add_argument("--clean", action="store_true",
                    help="weld coinciding vertices and drop unused vertices and zero-area faces first")
@@ -60,17 +61,20 @@ def output_args(s):
 
 
 def energy_args(s):
-    """--bounds and --smoothing of the energy methods (harmonic, biharmonic, triharmonic)."""
+    """--bounds (every method but rbf) and --smoothing (the energy methods and rbf)."""
     s.add_argument("--bounds", default=None, metavar="samples|LO,HI",
-                   help="energy methods: the minimiser within these bounds ('samples': each field's sample range), "
-                        "not a clip")
+                   help="the minimiser within these bounds ('samples': each field's sample range), not a clip; "
+                        "gvf-harmonic: curve values projected onto them, then the bounded fill")
     s.add_argument("--smoothing", default=None, metavar="LAMBDA|auto",
-                   help="energy methods: soft constraints with this lambda ('auto': generalised cross-validation)")
+                   help="energy methods and rbf: soft constraints with this lambda ('auto': generalised "
+                        "cross-validation)")
 
 
 def pipeline_args(s, *, method_help="default: gvf-harmonic"):
     """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
-    s.add_argument("--method", choices=METHODS, default="gvf-harmonic", help=method_help)
+    s.add_argument("--method", choices=METHODS, default="gvf-harmonic",
+                   help=f"{method_help}; rbf: the thin-plate spline in space; auto: the candidate with the lowest "
+                        f"5-fold cross-validation error (see 'manifill cv')")
     s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
     s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")

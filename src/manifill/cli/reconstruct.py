@@ -1,5 +1,6 @@
 """``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6)."""
 
+from ..surface.energy_fill import ENERGY_METHODS
 from ..surface.reconstruct import STEPS
 from .common import (bounds_arg, check_names, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
                      surface_outputs, write_surface)
@@ -32,7 +33,9 @@ def run(args):
     from ..surface.reconstruct import reconstruct
 
     out = surface_outputs(args)
-    V, F, S = load(args)
+    # the energy methods constrain positions exactly where they are, the others use the nearest vertices
+    exact = args.method in ENERGY_METHODS
+    V, F, S = load(args, keep_points=exact)
     check_names(args, S, out)
     if args.subdivide:
         from ..mesh.subdivide import check_subdivide
@@ -40,7 +43,9 @@ def run(args):
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
     bar = step_bar(args, ("graph",) + STEPS[args.method])
     try:
-        r = reconstruct(V, F, S.idx, S.vals, method=args.method, partition=args.partition, weights=args.weights,
+        where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
+                                                                             max_distance=args.max_snap)
+        r = reconstruct(V, F, **where, method=args.method, partition=args.partition, weights=args.weights,
                         distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
                         solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates,
                         bounds=bounds_arg(args.bounds), smoothing=smoothing_arg(args.smoothing), progress=bar)
@@ -63,7 +68,11 @@ def run(args):
         write_surface(out, V, F, r.point_data(S.names))
     rep = r.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
-    if S.snap_distance is not None:
+    if "points" in rep and rep["points"]["located"] != "nearest vertex":
+        pt = rep["points"]
+        print(f"located {pt['points']:,} positions on the surface: {pt['inside_faces']:,} inside faces, "
+              f"{pt['at_vertices']:,} at vertices; largest distance {pt['max_distance']:.3g}")
+    elif S.snap_distance is not None:
         print(f"snapped positions to vertices: largest distance {S.snap_distance.max():.3g}")
     for name, c in zip(S.names, rep["check"]):
         state = "holds" if c["holds"] else f"fails for {c['violations']} samples"
@@ -76,7 +85,8 @@ def run(args):
     if "harmonic" in rep:
         h = rep["harmonic"]
         its = h.get("iterations")
-        what = "steps 5-6: harmonic fill" if args.method == "gvf-harmonic" else f"{args.method} fill (samples fixed)"
+        m = rep["method"]
+        what = "steps 5-6: harmonic fill" if m == "gvf-harmonic" else f"{m} fill (samples fixed)"
         extra = ""
         if "bounds" in h:
             at = sum(h["bounds"]["active_lo"]) + sum(h["bounds"]["active_hi"])
@@ -87,6 +97,11 @@ def run(args):
             extra += f", smoothing lambda {lam}"
         print(f"{what}, weights={h.get('weights', args.weights)}, solver={h.get('solver', 'direct')}"
               + (f", {', '.join(map(str, its))} iterations" if its else "") + extra)
+    if "rbf" in rep:
+        print(f"rbf: thin-plate spline through the sample positions ({rep['rbf']['dims']}-D)")
+    if "auto" in rep:  # method='auto': the cross-validation table and the choice
+        print(rep["auto"]["table"])
+        print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
     print_time(args, rep["seconds"])
     print_ranges(X, S, out)
     pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method}")

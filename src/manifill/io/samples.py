@@ -5,7 +5,8 @@ Sample files
 CSV
     A header, then one row per sample. Either ``vertex,value[,value2...]``
     (0-based vertex indices) or ``x,y,z,value[,...]`` (positions, snapped to the
-    nearest vertex). The value columns keep their header names.
+    nearest vertex, or kept as given with ``keep_points`` for the energy methods,
+    which locate them on the surface). The value columns keep their header names.
 NPZ
     Arrays ``idx`` (or ``points``) and ``vals`` (``(k,)`` or ``(k, p)``), and
     optionally ``names``.
@@ -64,7 +65,8 @@ def _sample_kind(path):
     return suffix(path, SAMPLE_FORMATS + ("(FreeSurfer lh.thickness, ...)",), "read")
 
 
-def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None, snap_to=None):
+def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None, snap_to=None,
+                 keep_points=False):
     """Read samples, snapping positions to vertices.
 
     Parameters
@@ -87,6 +89,10 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         solid, :func:`manifill.solid.tets.boundary_vertices`); every vertex by
         default. The samples keep ``V``'s vertex numbers. Samples given by
         vertex index are not affected.
+    keep_points : bool, optional
+        For positions: keep them as given (``Samples.points``, ``point_vals``)
+        for a reconstruction that locates them on the surface (see
+        :meth:`manifill.surface.samples.Samples.from_points`); not with ``snap_to``.
 
     Returns
     -------
@@ -142,7 +148,7 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
             return Samples.from_indices(col.astype(np.int64), table[:, 1:], n, names=names, duplicates=duplicates)
         if snap_to is None:
             return Samples.from_points(V, table[:, :3], table[:, 3:], names=names, duplicates=duplicates,
-                                       max_distance=max_distance)
+                                       max_distance=max_distance, keep_points=keep_points)
         snap_to = np.unique(np.asarray(snap_to, dtype=np.int64))
         S = Samples.from_points(np.asarray(V, dtype=np.float64)[snap_to], table[:, :3], table[:, 3:], names=names,
                                 duplicates=duplicates, max_distance=max_distance)

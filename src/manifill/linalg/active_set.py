@@ -1,8 +1,8 @@
-"""Bounds ``lo <= x <= hi`` for :class:`manifill.linalg.quadratic.QuadraticSolver`: a primal active-set loop.
+"""Bounds ``lo <= x <= hi`` for :class:`manifill.linalg.quadratic.QuadraticSolver`: a monotone active-set loop.
 
 The problem is
 
-    minimise  1/2 x^T A x + c^T x   subject to  x[idx] = vals,  lo <= x <= hi  on the free indices,
+    minimise  q(x) = 1/2 x^T A x + c^T x   subject to  x[idx] = vals,  lo <= x <= hi  on the free indices,
 
 a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with
 ``g = A x + c`` (``+ Aeq^T mu`` with equality rows): ``lo <= x <= hi``;
@@ -10,27 +10,40 @@ a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with
 where ``x_i = hi`` (``g_i`` is the multiplier of the bound, and complementarity
 holds since an index is either strictly inside or at its bound).
 
-The loop, in the manner of libigl's ``active_set`` (used by bounded biharmonic
-weights), one field at a time: start from the unbounded minimiser; while a free
-index violates a bound, fix every violated index at its bound (it joins the
-fixed set) and solve again; when none violates, release every fixed-at-a-bound
-index whose multiplier has the wrong sign and solve again; stop when nothing
-violates and every multiplier has the right sign. Unlike libigl, violations are
-fixed before anything is released (the two are never mixed in one step), and a
-repeated active set (a cycle) stops the loop with a
-:class:`~manifill.errors.SolveError`, as does the iteration cap.
+The loop, one field at a time, keeps a *face* (indices fixed at a bound) and a
+feasible point ``z`` on it, and solves for ``y``, the minimiser on the face:
 
-With equality rows ``Aeq x = beq`` the multipliers are those of ``A x + c +
-Aeq^T mu`` (``mu`` from the KKT solve), and an index is not fixed if that would
-leave the rows without a matching to distinct free indices (a singular KKT
-system): the least violated such index stays free; if nothing else can move, a
-:class:`~manifill.errors.SolveError` says the rows cannot be met within the
-bounds (the tests confirm each such case infeasible by a linear program).
+- if ``y`` violates a bound, ``z`` moves towards ``y``: to the projection
+  ``clip(y)`` when that lowers ``q`` (every violator joins the face at once),
+  otherwise along the segment to the first bound it meets (those join; ``q``
+  does not rise, by convexity). The face grows at every such step;
+- if ``y`` is feasible it is the minimiser of its face; when every multiplier
+  has the right sign it is the answer, otherwise every wrong-signed index
+  leaves the face (or, if one of them would at once leave the box the other
+  way, only the worst), and ``q`` falls strictly.
 
-Every change of the active set builds the reduced system of the new fixed set
-through :meth:`QuadraticSolver.fixing` (the one reduction path), with the
-solver's backend: one factorisation (``direct``) or hierarchy (``amg``) per
-iteration and field, so the cost is ``iterations`` times a setup and a solve.
+So ``q`` falls strictly from one feasible face minimiser to the next, no face
+can come back, and the loop ends (a finite rule; a face seen again, possible
+only by round-off, is reported as a cycle). Releasing every wrong-signed index
+and fixing every violator at once, without the test on ``q``, is libigl's
+``active_set``; it can chase its own tail (one move undoing the other), which
+the test on ``q`` rules out.
+
+Re-solves reuse the work of the first solve: every face solve starts from the
+current point, and with the ``amg`` backend it runs conjugate gradients on the
+face's system ``A_FF`` preconditioned by the unbounded system's hierarchy
+restricted to the free set (``R M^-1 R^T``, symmetric positive definite):
+no new set-up. The ``direct`` backend factorises each face anew (its systems
+are small; preconditioned CG with the full factorisation was not faster);
+``iterate`` and equality rows too.
+
+With equality rows ``Aeq x = beq`` (points inside faces) the older loop runs
+(fix every violator, then release every wrong-signed multiplier, with the
+multipliers of ``A x + c + Aeq^T mu``): a projection would break the rows. An
+index is not fixed if that would leave the rows without a matching to distinct
+free indices (a singular KKT system): the least violated such index stays
+free; if nothing else can move, a :class:`~manifill.errors.SolveError` says
+the rows cannot be met within the bounds.
 """
 
 import numpy as np
@@ -39,10 +52,11 @@ from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from ..errors import SampleError, SolveError
 from ..tolerances import TOL
+from .pcg import nrm2, pcg
 
 __all__ = ["MAX_ITERATIONS", "as_bounds", "solve_bounded", "check_samples"]
 
-#: Default cap on the active-set iterations (re-solves) of one field.
+#: Default cap on the active-set iterations (face solves) of one field.
 MAX_ITERATIONS = 100
 
 
@@ -104,14 +118,14 @@ def check_samples(vals, lo, hi):
                           f"bounds='samples'")
 
 
-def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MAX_ITERATIONS):
+def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MAX_ITERATIONS, reuse=False):
     """The minimiser of ``q``'s energy with ``x[idx] = vals`` and ``lo <= x <= hi`` on the free indices.
 
     Parameters
     ----------
     q : QuadraticSolver
-        The problem without bounds (its :meth:`~QuadraticSolver.solve` and
-        :meth:`~QuadraticSolver.fixing` are used).
+        The problem without bounds (its :meth:`~QuadraticSolver.solve`,
+        :attr:`~QuadraticSolver.backend` and :meth:`~QuadraticSolver.fixing` are used).
     vals : (k, p) float numpy array
         Validated values at ``q.idx``.
     lo, hi : (p,) float numpy arrays
@@ -119,19 +133,24 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     linear, x0, beq : optional
         As for :meth:`QuadraticSolver.solve`.
     maxiter : int, optional
-        Cap on the re-solves of one field.
+        Cap on the face solves of one field.
+    reuse : bool, optional
+        With the ``amg`` backend, precondition every face solve by ``q``'s
+        hierarchy (no new set-up); False sets a backend up for every face.
 
     Returns
     -------
     X : (n, p) numpy array
         The minimiser, one column per field, each with its own active set.
     report : dict
-        ``lo``, ``hi`` (per field, None for unbounded), ``iterations``,
-        ``active_lo``, ``active_hi`` (per field), ``kkt_residual`` (the largest
-        ``|g_i|`` on an inactive free index or wrong-signed part of a
-        multiplier, over all fields, in the units of ``A x``) and
-        ``violation`` (the largest bound violation of a free index before the
-        final round-off clip, in the units of ``x``).
+        ``lo``, ``hi`` (per field, None for unbounded), ``iterations`` (face
+        solves), ``setups`` (backend set-ups among them), ``cg_iterations``
+        (conjugate-gradient steps of the reused hierarchy), ``active_lo``,
+        ``active_hi`` (per field), ``kkt_residual`` (the largest ``|g_i|`` on
+        an inactive free index or wrong-signed part of a multiplier, over all
+        fields, in the units of ``A x``) and ``violation`` (the largest bound
+        violation of a free index before the final round-off clip, in the
+        units of ``x``).
 
     Raises
     ------
@@ -167,15 +186,22 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     amax = float(np.abs(q.A.data).max()) if q.A.nnz else 0.0
     report = {"lo": [None if np.isinf(v) else float(v) for v in lo],
               "hi": [None if np.isinf(v) else float(v) for v in hi],
-              "iterations": [], "active_lo": [], "active_hi": [], "kkt_residual": 0.0, "violation": 0.0}
+              "iterations": [], "setups": [], "cg_iterations": [], "active_lo": [], "active_hi": [],
+              "kkt_residual": 0.0, "violation": 0.0}
     for j in range(p):
         finite = [abs(v) for v in (lo[j], hi[j]) if np.isfinite(v)]
         scale = max([float(np.abs(vals[:, j]).max()) if vals.size else 0.0, *finite]) or 1.0
         tol_x = TOL.bound_rtol * scale
         tol_g = TOL.bound_rtol * (amax * scale + float(np.abs(C[:, j]).max()))
-        x, m, its, active, at_hi = _one_field(q, vals[:, j], lo[j], hi[j], C[:, j], X[:, j],
-                                              None if B is None else B[:, j],
-                                              None if mu is None else mu[:, j], tol_x, tol_g, maxiter, j)
+        faces = _Faces(q, vals[:, j], lo[j], hi[j], C[:, j], reuse=reuse)
+        if np.isinf(lo[j]) and np.isinf(hi[j]):
+            x, m, its, active, at_hi = X[:, j], None, 0, np.zeros(0, np.int64), np.zeros(0, bool)
+        elif q.Aeq is None:
+            x, its, active, at_hi = _bounded_field(faces, X[:, j], tol_x, tol_g, maxiter, j)
+            m = None
+        else:
+            x, m, its, active, at_hi = _rows_loop(faces, X[:, j], None if B is None else B[:, j],
+                                                  None if mu is None else mu[:, j], tol_x, tol_g, maxiter, j)
         free = np.setdiff1d(q.unknown, active)
         xf = x[free]
         report["violation"] = max(report["violation"], float(np.max(lo[j] - xf, initial=0.0)),
@@ -186,10 +212,181 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
                   float(np.max(-g[active[~at_hi]], initial=0.0)), float(np.max(g[active[at_hi]], initial=0.0)))
         report["kkt_residual"] = max(report["kkt_residual"], res)
         report["iterations"].append(its)
+        report["setups"].append(faces.setups)
+        report["cg_iterations"].append(faces.cg_iterations)
         report["active_lo"].append(int(np.count_nonzero(~at_hi)))
         report["active_hi"].append(int(np.count_nonzero(at_hi)))
         X[:, j] = x
     return X, report
+
+
+class _Faces:
+    """The minimiser on a face (free indices ``side != 0`` fixed at ``lo`` (-1) or ``hi`` (+1)) of one field."""
+
+    def __init__(self, q, vals, lo, hi, c, reuse=True):
+        self.q, self.vals, self.lo, self.hi, self.c = q, vals, lo, hi, c
+        backend = q.backend
+        self.restricted = reuse and q.Aeq is None and backend.name == "amg" and hasattr(backend, "precondition")
+        self.setups = self.cg_iterations = 0
+        self.known = np.zeros(q.n)  # the fixed values, zero elsewhere (empty components too)
+        self.known[q.idx] = vals
+
+    def energy(self, x):
+        """``q(x)`` (NaN, on empty components, read as 0)."""
+        x = np.nan_to_num(x, nan=0.0)
+        return 0.5 * float(x @ (self.q.A @ x)) + float(self.c @ x)
+
+    def solve(self, side, x0, beq=None):
+        """The minimiser with ``q.unknown[side != 0]`` at their bounds (and the Aeq multipliers or None)."""
+        q = self.q
+        at = np.flatnonzero(side)
+        W = q.unknown[at]
+        bvals = np.where(side[at] > 0, self.hi, self.lo)
+        if self.restricted:
+            x = self._restricted(side == 0, W, bvals, x0)
+            if x is not None:
+                return x, None
+        sub = q.fixing(W)
+        self.setups += 1
+        x = sub.solve(np.concatenate([self.vals, bvals]), linear=self.c,
+                      x0=None if sub.report["solver"] == "direct" else np.nan_to_num(x0, nan=0.0), beq=beq)
+        return x, (None if sub.eq_multipliers is None else sub.eq_multipliers[:, 0])
+
+    def _restricted(self, free, W, bvals, x0):
+        """CG on ``A_FF`` preconditioned by ``q``'s hierarchy restricted to ``F``; None if it does not converge."""
+        q, backend = self.q, self.q.backend
+        F = q.unknown[free]
+        full = self.known.copy()
+        full[W] = bvals
+        b = -(q.A @ full)[F] - self.c[F]
+        wide, inner = np.zeros(q.n), np.zeros(q.unknown.size)
+
+        def matvec(v):
+            wide[F] = v
+            return (q.A @ wide)[F]
+
+        def precondition(r, _):
+            inner[free] = r
+            return backend.precondition(inner)[free]
+
+        xF = np.nan_to_num(x0[F], nan=0.0)
+        bnorm = nrm2(b)
+        r = b - matvec(xF)
+        s = nrm2(r)
+        if s > backend.rtol * bnorm:
+            r *= 1.0 / s
+            e = np.zeros_like(r)
+            res = pcg(matvec, r, e, precondition=precondition, rtol=backend.rtol * bnorm / s,
+                      maxiter=backend.maxiter, flexible=True)
+            self.cg_iterations += res.iterations
+            if not res.converged:
+                return None
+            xF = xF + s * e
+        full[F] = xF
+        full[q.empty] = np.nan
+        return full
+
+
+def _bounded_field(faces, y, tol_x, tol_g, maxiter, field):
+    """The two phases of the module's docstring for one field: (x, face solves, active indices, at_hi)."""
+    q, lo, hi, A = faces.q, faces.lo, faces.hi, faces.q.A
+    U = q.unknown
+    side = np.zeros(U.size, dtype=np.int8)  # -1 at lo, +1 at hi, 0 free
+    seen, solves, full = {side.tobytes()}, 0, np.zeros(q.n)
+    while True:  # primal-dual steps: release the wrong-signed, fix the peaks of the violation
+        yu = y[U]
+        free = side == 0
+        viol = np.where(free & (yu < lo - tol_x), lo - yu, np.where(free & (yu > hi + tol_x), yu - hi, 0.0))
+        g = _gradient(q, y, faces.c, None)[U]
+        wrong = (side != 0) & (np.where(side < 0, -g, g) > tol_g)
+        if not (wrong.any() or viol.any()):
+            active = np.flatnonzero(side)
+            return y, solves, U[active], side[active] > 0
+        full[U] = viol  # a peak: violated at least as much as every neighbour in A's graph
+        peak = (viol > 0) & (viol >= np.maximum.reduceat(full[A.indices], A.indptr[:-1])[U])
+        trial = side.copy()
+        trial[wrong] = 0
+        trial[peak & (yu < lo)], trial[peak & (yu > hi)] = -1, 1
+        if trial.tobytes() in seen or solves == maxiter:  # a face seen before: the monotone loop
+            break
+        side = trial
+        seen.add(side.tobytes())
+        solves += 1
+        y, _ = faces.solve(side, y)
+    return _monotone(faces, y, side, solves, tol_x, tol_g, maxiter, field)
+
+
+def _monotone(faces, y, side, solves, tol_x, tol_g, maxiter, field):
+    """The monotone loop from the face ``side`` and its minimiser ``y``: (x, solves, active indices, at_hi)."""
+    q, lo, hi = faces.q, faces.lo, faces.hi
+    U = q.unknown
+    z = ez = None  # the feasible point on the face and its energy
+    undo = None  # (side before a block release, the worst index) while that release is on trial
+    seen = set()
+    while True:
+        yu = y[U]
+        free = side == 0
+        low, high = free & (yu < lo - tol_x), free & (yu > hi + tol_x)
+        if not (low.any() or high.any()):  # y minimises its face and is feasible
+            xu = np.clip(yu, lo, hi)
+            side[free & (xu <= lo + tol_x)] = -1  # at a bound already: on the face, multiplier ~0
+            side[free & (xu >= hi - tol_x)] = 1
+            xu = np.where(side < 0, lo, np.where(side > 0, hi, xu))
+            x = y.copy()
+            x[U] = xu
+            g = _gradient(q, x, faces.c, None)[U]
+            wrong = np.where(side < 0, -g, np.where(side > 0, g, 0.0))  # > 0: the multiplier's wrong sign
+            if not (wrong > tol_g).any():
+                active = np.flatnonzero(side)
+                return x, solves, U[active], side[active] > 0
+            key = side.tobytes()
+            if key in seen:
+                raise SolveError(f"the active set of the bounds cycles (field {field}, "
+                                 f"{np.count_nonzero(side)} indices at a bound; round-off); pass "
+                                 f"solver='direct', or wider bounds")
+            seen.add(key)
+            z, ez = x, faces.energy(x)
+            worst = int(np.argmax(wrong))
+            undo = (side.copy(), worst) if np.count_nonzero(wrong > tol_g) > 1 else None
+            side[wrong < -tol_g] = 0  # release every wrong-signed index
+        elif z is None:  # the unbounded minimiser: clip it
+            side[low], side[high] = -1, 1
+            z = y.copy()
+            z[U] = np.clip(yu, lo, hi)
+            ez = faces.energy(z)
+        else:
+            cand = y.copy()
+            cand[U] = np.clip(yu, lo, hi)
+            ec = faces.energy(cand)
+            if ec < ez:  # the projection lowers q: every violator joins the face
+                side[low], side[high] = -1, 1
+                z, ez, undo = cand, ec, None
+            else:  # along the segment to the first bound met
+                zu = z[U]
+                d = yu - zu
+                out = low | high
+                ratio = np.full(U.size, np.inf)
+                ratio[low] = (lo - zu[low]) / d[low]
+                ratio[high] = (hi - zu[high]) / d[high]
+                alpha = float(ratio.min())
+                if alpha <= 0.0 and undo is not None:  # a released index leaves at once: release the worst only
+                    side, worst = undo
+                    side[worst], undo = 0, None
+                else:
+                    undo = None
+                    hits = out & (ratio <= alpha)
+                    zu = np.clip(zu + alpha * d, lo, hi)
+                    side[hits & low], side[hits & high] = -1, 1
+                    zu[side < 0], zu[side > 0] = lo, hi
+                    z = z.copy()
+                    z[U] = zu
+                    ez = faces.energy(z)
+        if solves == maxiter:
+            raise SolveError(f"the active set of the bounds did not settle in {maxiter} iterations (field {field}, "
+                             f"{np.count_nonzero(side)} indices at a bound); pass a larger bound_iterations, "
+                             f"or wider bounds")
+        solves += 1
+        y, _ = faces.solve(side, z)
 
 
 def _gradient(q, x, c, mu):
@@ -232,20 +429,19 @@ def _keep_rows_solvable(q, active, new, excess):
     return np.flatnonzero(take)
 
 
-def _one_field(q, vals, lo, hi, c, x, beq, mu, tol_x, tol_g, maxiter, field):
-    """The active-set loop of one field: (x, multipliers of Aeq, iterations, active indices, at_hi)."""
+def _rows_loop(faces, x, beq, mu, tol_x, tol_g, maxiter, field):
+    """The loop with equality rows: (x, multipliers of Aeq, iterations, active indices, at_hi)."""
+    q, lo, hi, c = faces.q, faces.lo, faces.hi, faces.c
     active = np.zeros(0, dtype=np.int64)
     at_hi = np.zeros(0, dtype=bool)
     seen = {active.tobytes()}
-    if np.isinf(lo) and np.isinf(hi):
-        return x, mu, 0, active, at_hi
     for it in range(maxiter + 1):
         free = np.setdiff1d(q.unknown, active)
         below = free[x[free] < lo - tol_x]
         above = free[x[free] > hi + tol_x]
         new = np.concatenate([below, above])
         blocked = False
-        if new.size and q.Aeq is not None:
+        if new.size:
             excess = np.concatenate([lo - x[below], x[above] - hi])
             kept = _keep_rows_solvable(q, active, new, excess)
             blocked = kept.size < new.size
@@ -270,9 +466,7 @@ def _one_field(q, vals, lo, hi, c, x, beq, mu, tol_x, tol_g, maxiter, field):
             raise SolveError(f"the active set of the bounds {why} (field {field}, {active.size} indices at a "
                              f"bound); pass a larger bound_iterations, solver='direct', or wider bounds")
         seen.add(key)
-        sub = q.fixing(active)
-        bvals = np.where(at_hi, hi, lo)
-        x = sub.solve(np.concatenate([vals, bvals]), linear=c, x0=x if sub.report["solver"] != "direct" else None,
-                      beq=beq)
-        mu = None if sub.eq_multipliers is None else sub.eq_multipliers[:, 0]
+        side = np.zeros(q.unknown.size, dtype=np.int8)
+        side[np.searchsorted(q.unknown, active)] = np.where(at_hi, 1, -1)
+        x, mu = faces.solve(side, x, beq)
     raise AssertionError("unreachable")  # pragma: no cover

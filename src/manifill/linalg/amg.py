@@ -143,6 +143,10 @@ class Multigrid:
         np.multiply(self._cycle(0, b), rnorm / self.scale, out=z, dtype=np.float64)
         return z
 
+    def precondition(self, r, rnorm):
+        """``M r`` (one float32 cycle), for conjugate gradients on this matrix or a restriction of it."""
+        return self._precondition(r, rnorm)
+
     def pcg(self, r0, x0):
         """Solve ``A x = r0`` from ``x0`` until ``||r|| <= rtol ||r0||``: ``(x, iterations)``.
 

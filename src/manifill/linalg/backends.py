@@ -33,6 +33,7 @@ from scipy.sparse.linalg import splu
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
 from .amg import Multigrid, canonical_csr, independent_blocks
+from .pcg import nrm2
 from .threads import workers
 from ..tolerances import TOL
 from ..validate import check_option
@@ -99,6 +100,10 @@ class DirectSolver:
         if R.shape[0] == 0:
             return np.zeros(R.shape), {"solver": self.name}
         return self._lu.solve(np.asfortranarray(R)).reshape(R.shape), {"solver": self.name}
+
+    def precondition(self, r):
+        """``A^-1 r`` for one (N,) vector: the exact inverse, as a preconditioner of a restriction of ``A``."""
+        return self._lu.solve(r) if self.shape[0] else np.zeros_like(r)
 
 
 class AMGSolver:
@@ -245,6 +250,20 @@ class AMGSolver:
         self.blocks = len(self._parts)
         self.levels = max(len(mg.nnz) for _, mg in self._parts)
         self.operator_complexity = sum(sum(mg.nnz) for _, mg in self._parts) / max(self.A.nnz, 1)
+
+    def precondition(self, r):
+        """``M r`` for one (N,) vector: one cycle of every block's hierarchy (symmetric positive definite to
+        float32 rounding), as a preconditioner of ``A`` or of a restriction of it."""
+        z = np.zeros_like(r)
+        for rows, mg in self._parts:
+            part = r if rows is None else r[rows]
+            norm = nrm2(part)
+            if norm > 0:
+                if rows is None:
+                    z = mg.precondition(part, norm)
+                else:
+                    z[rows] = mg.precondition(part, norm)
+        return z
 
     def solve(self, R, x0=None):
         """Solve ``A X = R`` column by column.

@@ -71,7 +71,7 @@ class QuadraticSolver:
         Symmetric positive semi-definite, positive definite on every component
         once its fixed indices are removed (a Laplacian or stiffness).
     idx : (k,) array_like of int
-        Fixed indices, each listed once.
+        Fixed indices, each listed once (may be empty when ``Aeq`` anchors every component).
     solver : {'auto', 'direct', 'amg', 'iterate'}, optional
         Backend (see :mod:`manifill.linalg.backends`).
     on_empty : {'error', 'nan'}, optional
@@ -156,7 +156,11 @@ class QuadraticSolver:
             Aeq = self._equality_rows(Aeq, A.shape[0], solver)
         self._options = {"solver": solver, "on_empty": on_empty, "iteration": iteration, "tol": tol,
                          "maxiter": maxiter, "symmetric_pattern": symmetric_pattern}
-        self._reduce(A, as_indices(idx, A.shape[0], what="idx"), Aeq=Aeq, **self._options)
+        if Aeq is not None and np.size(idx) == 0:  # the rows alone may anchor every component
+            idx = np.zeros(0, dtype=np.int64)
+        else:
+            idx = as_indices(idx, A.shape[0], what="idx")
+        self._reduce(A, idx, Aeq=Aeq, **self._options)
 
     def fixing(self, extra):
         """The same problem with the indices ``extra`` fixed too (after ``idx``), reduced and set up anew.
@@ -185,6 +189,12 @@ class QuadraticSolver:
         sub._options = self._options
         sub._reduce(self.A, np.concatenate([self.idx, extra]), Aeq=self.Aeq, **self._options)
         return sub
+
+    @property
+    def backend(self):
+        """The linear solver of the reduced system (:mod:`manifill.linalg.backends`), e.g. to precondition
+        a restriction of it (:mod:`manifill.linalg.active_set` reuses it across the active set's solves)."""
+        return self._solver
 
     @staticmethod
     def _equality_rows(Aeq, n, solver):

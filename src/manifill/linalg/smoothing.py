@@ -204,7 +204,8 @@ class SmoothingFit:
         except np.linalg.LinAlgError:
             raise SolveError("S'WS + lam A is singular: the samples do not pin down the energy's null space "
                              "(a sample row spanning two components?); add samples or check A") from None
-        self._theta = np.clip(theta, 0.0, 1.0)  # lam0 Sigma -> theta, S_b'WS_b -> 1 - theta, in the basis phi
+        # lam0 Sigma -> theta, S_b'WS_b -> 1 - theta, in the basis phi; the null space's theta is 0, not rounding
+        self._theta = np.where(theta < TOL.smoothing_null, 0.0, np.clip(theta, 0.0, 1.0))
         self._phi = phi
         self._psi = Sb @ phi  # (k, m)
         self._interp = None

@@ -19,13 +19,14 @@ constraints, not the energy:
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import OptionError, SolveError
+from ..errors import OptionError, SampleError, SolveError
 from ..linalg.active_set import as_bounds as bounds_per_field
 from ..linalg.active_set import check_samples
 from ..linalg.quadratic import QuadraticSolver
+from ..tolerances import TOL
 from .polyharmonic import PolyharmonicSolver
 
-__all__ = ["ENERGY_METHODS", "energy_fill", "as_bounds"]
+__all__ = ["ENERGY_METHODS", "energy_fill", "as_bounds", "smoothing_value"]
 
 #: The energy methods and their order k.
 ENERGY_METHODS = {"harmonic": 1, "biharmonic": 2, "triharmonic": 3}
@@ -75,7 +76,7 @@ def as_bounds(bounds, vals):
 
 
 def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_empty="error", bounds=None,
-                smoothing=None, sample_weights=None, tol=None, maxiter=None):
+                smoothing=None, sample_weights=None, tol=None, maxiter=None, Aeq=None, beq=None):
     """Minimise the k-harmonic energy on a Surface with the samples as constraints.
 
     Parameters
@@ -94,8 +95,18 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         See :func:`as_bounds`.
     smoothing : None, float >= 0 or 'auto', optional
         Soft constraints with this lambda (``'auto'``: chosen by generalised cross-validation).
-    sample_weights : (k,) array_like of float > 0, optional
-        Weights ``w_i`` of the soft constraints.
+    sample_weights : (k,) or (k + m,) array_like of float > 0, optional
+        Weights ``w_i`` of the soft constraints (the vertex samples, then the rows of ``Aeq``).
+    Aeq : (m, n) scipy sparse matrix, optional
+        Samples at points inside faces: one barycentric row each
+        (:meth:`manifill.surface.locate.SurfacePoints.rows`), constrained exactly,
+        or softly with ``smoothing``; ``idx`` may then be empty. ``solver='direct'``
+        factorises the KKT system (and holds bounds); ``'amg'`` eliminates one free
+        vertex per row (:func:`manifill.surface.points.eliminate_rows`) and runs
+        AMG-preconditioned CG on the reduced, still positive definite, energy (no
+        bounds); ``'auto'`` picks between them by size as for vertex samples.
+    beq : (m, p) numpy array, optional
+        Their values.
 
     Returns
     -------
@@ -106,29 +117,40 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     Raises
     ------
     OptionError
-        ``k >= 2`` on a surface without triangles; ``bounds`` with ``smoothing``.
+        ``k >= 2`` on a surface without triangles; ``bounds`` with ``smoothing``;
+        ``Aeq`` with ``solver='iterate'``, or with bounds and ``solver='amg'``.
     SampleError, SolveError
         As for the solve core.
     """
     L = surface.laplacian(weights)
     A = _energy(surface, L, k)
-    lohi = as_bounds(bounds, vals)
+    lohi = as_bounds(bounds, vals if Aeq is None else np.vstack([vals, beq]))
     if smoothing is not None:
         if lohi is not None:
             raise OptionError("bounds and smoothing together are not supported yet; pass one of them")
-        values, report = _smoothed(A, surface.n, idx, vals, smoothing, sample_weights, k)
+        values, report = _smoothed(A, surface.n, idx, vals, smoothing, sample_weights, k, Aeq, beq)
         report.update(weights=weights, solver="direct")
         return values, report
     if sample_weights is not None:
         raise OptionError("sample_weights weigh soft constraints; pass smoothing= too, or leave them out")
     auto = solver == "auto"
-    if k > 1:  # the k-harmonic systems' own backend policy and tolerance
+    if Aeq is not None:
+        solver, tol, maxiter = _row_solver(k, surface.n - idx.size - Aeq.shape[0], solver, lohi, tol, maxiter)
+    elif k > 1:  # the k-harmonic systems' own backend policy and tolerance
         solver, tol, maxiter = PolyharmonicSolver.settings(k, surface.n - idx.size, solver, tol, maxiter)
 
     def run(backend):
+        if Aeq is not None and backend == "amg":
+            return _eliminated(A, idx, vals, Aeq, beq, tol=tol, maxiter=maxiter, on_empty=on_empty,
+                               symmetric_pattern=weights in ("uniform", "cotan"))
+        if Aeq is not None and lohi is not None:
+            return _bounded_rows(A, idx, vals, Aeq, beq, lohi, on_empty=on_empty,
+                                 symmetric_pattern=weights in ("uniform", "cotan"))
         qs = QuadraticSolver(A, idx, solver=backend, on_empty=on_empty, tol=tol, maxiter=maxiter,
-                             symmetric_pattern=weights in ("uniform", "cotan"), what="the energy")
-        X = qs.solve(vals) if lohi is None else qs.solve(vals, lo=lohi[0], hi=lohi[1])
+                             symmetric_pattern=weights in ("uniform", "cotan"), Aeq=Aeq, what="the energy")
+        X = qs.solve(vals, beq=beq) if lohi is None else qs.solve(vals, beq=beq, lo=lohi[0], hi=lohi[1])
+        if Aeq is not None:
+            X = _refine(qs, X, vals, beq)
         return X, qs.report
 
     try:
@@ -161,19 +183,166 @@ def _energy(surface, L, k):
     return polyharmonic_energy(L, mass_matrix(surface.V, surface.F, kind="voronoi"), k)
 
 
-def _smoothed(A, n, idx, vals, smoothing, sample_weights, k):
+def _smoothed(A, n, idx, vals, smoothing, sample_weights, k, Aeq=None, beq=None):
     from ..linalg.smoothing import smooth
 
-    if isinstance(smoothing, str):
-        if smoothing != "auto":
-            raise OptionError(f"smoothing={smoothing!r} is not a number >= 0 or 'auto'; pass one of those")
-        lam = "auto"
-    else:
-        try:
-            lam = float(smoothing)
-        except (TypeError, ValueError):
-            raise OptionError(f"smoothing={smoothing!r} is not a number >= 0 or 'auto'; pass one of those") from None
+    lam = smoothing_value(smoothing, idx.size + (0 if Aeq is None else Aeq.shape[0]))
     S = sp.csr_array((np.ones(idx.size), (np.arange(idx.size), idx)), shape=(idx.size, n))
+    if Aeq is not None:  # points inside faces: their barycentric rows
+        S, vals = sp.csr_array(sp.vstack([S, sp.csr_array(Aeq)])), np.vstack([vals, beq])
     X, rep = smooth(A, S, vals, lam, w=sample_weights)
     X = np.asarray(X, dtype=np.float64)
     return (X if X.ndim == 2 else X[:, None]), {"energy": k, "smoothing": rep}
+
+
+def smoothing_value(smoothing, k):
+    """``smoothing`` checked, in its own name: ``'auto'`` (with at least 3 samples) or a finite float >= 0.
+
+    Raises
+    ------
+    OptionError
+        Not ``'auto'`` nor a finite number >= 0.
+    SampleError
+        ``'auto'`` with fewer than 3 samples.
+
+    Examples
+    --------
+    >>> smoothing_value(0.5, 10), smoothing_value("auto", 10)
+    (0.5, 'auto')
+    >>> smoothing_value(-1, 10)
+    Traceback (most recent call last):
+    ...
+    manifill.errors.OptionError: smoothing=-1 is not a finite number >= 0 or 'auto'; pass one of those
+    """
+    if isinstance(smoothing, str):
+        if smoothing != "auto":
+            raise OptionError(f"smoothing={smoothing!r} is not a finite number >= 0 or 'auto'; pass one of those")
+        if k < 3:
+            raise SampleError(f"smoothing='auto' chooses lambda by cross-validation and needs at least 3 samples, "
+                              f"got {k}; pass a fixed smoothing=lambda")
+        return "auto"
+    try:
+        lam = float(smoothing)
+    except (TypeError, ValueError):
+        lam = float("nan")
+    if not (np.isfinite(lam) and lam >= 0):
+        raise OptionError(f"smoothing={smoothing!r} is not a finite number >= 0 or 'auto'; pass one of those")
+    return lam
+
+
+def _refine(qs, X, vals, beq):
+    """One step of iterative refinement of the KKT solve (the rows then hold to round-off, even for k = 3)."""
+    X = X if X.ndim == 2 else X[:, None]
+    g = qs.A @ np.nan_to_num(X) + qs.Aeq.T @ qs.eq_multipliers
+    mu = qs.eq_multipliers
+    D = qs.solve(np.zeros_like(vals), linear=g, beq=beq - qs.Aeq @ np.nan_to_num(X))
+    qs.eq_multipliers = mu + qs.eq_multipliers
+    return X + np.where(np.isnan(X), 0.0, D)
+
+
+def _bounded_rows(A, idx, vals, Aeq, beq, lohi, *, on_empty, symmetric_pattern):
+    """Bounds with points inside faces, one field at a time (factorised).
+
+    A point whose value is at a bound pins its face's vertices (those with a weight) at that
+    bound: the bounds leave no other way to meet the row, and as a row it would be dependent on
+    them in the active set. The other rows stay equality rows.
+    """
+    lo, hi = lohi
+    n, p = A.shape[0], vals.shape[1]
+    X = np.empty((n, p))
+    merged, report = {}, None
+    for j in range(p):
+        scale = max(float(np.abs(np.concatenate([vals[:, j], beq[:, j]])).max()), 1e-300)
+        at_lo = beq[:, j] <= lo[j] + TOL.bound_rtol * scale
+        at_hi = beq[:, j] >= hi[j] - TOL.bound_rtol * scale
+        pins = {}
+        for rows, bound in ((np.flatnonzero(at_lo), lo[j]), (np.flatnonzero(at_hi), hi[j])):
+            for v in Aeq[rows].indices[Aeq[rows].data != 0]:
+                if pins.get(int(v), bound) != bound:
+                    raise SampleError(f"sample points at both bounds of field {j} share vertex {int(v)}; "
+                                      f"no field within the bounds meets both: widen the bounds")
+                pins[int(v)] = bound
+        sample = dict(zip(idx.tolist(), vals[:, j].tolist()))
+        clash = [v for v, b in pins.items() if v in sample and sample[v] != b]
+        if clash:
+            raise SampleError(f"a sample point at a bound of field {j} needs vertex {clash[0]} at that bound, and "
+                              f"it is a sample with another value; widen the bounds or check the samples")
+        extra = np.array(sorted(v for v in pins if v not in sample), dtype=np.int64)
+        fidx = np.concatenate([idx, extra])
+        fvals = np.concatenate([vals[:, j], [pins[v] for v in extra.tolist()]])
+        keep = np.flatnonzero(~(at_lo | at_hi))
+        rows = Aeq[keep] if keep.size else None
+        qs = QuadraticSolver(A, fidx, solver="direct", on_empty=on_empty, symmetric_pattern=symmetric_pattern,
+                             Aeq=rows, what="the energy")
+        X[:, j] = qs.solve(fvals, beq=beq[keep, j] if keep.size else None, lo=lo[j], hi=hi[j])
+        report = qs.report
+        for key, v in report.get("bounds", {}).items():
+            if isinstance(v, list):
+                merged.setdefault(key, []).extend(v)
+            else:
+                merged[key] = max(merged.get(key, 0.0), v)
+    report["bounds"] = merged
+    return X, report
+
+
+def _row_solver(k, free, solver, lohi, tol, maxiter):
+    """The backend for samples inside faces: the KKT factorisation, or AMG on the rows eliminated."""
+    from ..linalg.backends import AUTO_DIRECT_MAX
+
+    if solver == "iterate":
+        raise OptionError("samples inside faces are equality rows, which solver='iterate' cannot hold; "
+                          "pass solver='direct', 'amg' or 'auto'")
+    if solver == "auto":  # the size policy of the vertex samples' solves (measured: bench/biharmonic_speed.py)
+        big = free > (AUTO_DIRECT_MAX if k == 1 else PolyharmonicSolver.AUTO_DIRECT_MAX) and k <= 2
+        solver = "amg" if big and lohi is None else "direct"
+    if solver == "amg" and lohi is not None:
+        raise OptionError("bounds with samples inside faces are solved by factorising their KKT system; "
+                          "pass solver='direct' (or 'auto')")
+    if solver == "amg" and k > 1:
+        _, tol, maxiter = PolyharmonicSolver.settings(k, free, "amg", tol, maxiter)
+    return solver, tol, maxiter
+
+
+def _eliminated(A, idx, vals, Aeq, beq, *, tol, maxiter, on_empty, symmetric_pattern):
+    """Samples inside faces with AMG-preconditioned CG: ``x = T z + t`` meets the rows, ``T' A T`` is SPD."""
+    import time
+
+    from ..linalg.backends import make_linear_solver
+    from ..mesh.topology import pattern_components
+    from .points import eliminate_rows
+
+    t0 = time.perf_counter()
+    n, p = A.shape[0], vals.shape[1]
+    ncomp, labels = pattern_components(A, symmetric=symmetric_pattern)
+    anchored = np.bincount(np.concatenate([labels[idx], labels[Aeq.indices]]), minlength=ncomp) > 0
+    empty = ~anchored[labels]
+    comps = sorted(({"vertices": int((labels == c).sum()), "example_vertex": int(np.flatnonzero(labels == c)[0])}
+                    for c in np.flatnonzero(~anchored)), key=lambda e: -e["vertices"])
+    if comps and on_empty == "error":
+        e = comps[0]
+        raise SolveError(f"a connected component of {e['vertices']} vertices (e.g. vertex {e['example_vertex']}) "
+                         f"has no sample, so its values are undetermined; add a sample there, or pass "
+                         f"on_empty='nan' (CLI: --on-empty nan) to leave it NaN")
+    T, t, kept = eliminate_rows(Aeq, beq, idx, n)
+    pos = np.full(n, -1, dtype=np.int64)
+    pos[kept] = np.arange(kept.size)
+    Ar = (T.T @ A @ T).tocsr()
+    fixed = pos[idx]
+    free = np.ones(kept.size, dtype=bool)
+    free[fixed] = False
+    free[empty[kept]] = False
+    fz = np.flatnonzero(free)
+    rows = Ar[fz]
+    R = -(rows[:, fixed] @ vals) - (T.T @ (A @ t))[fz]
+    t1 = time.perf_counter()
+    backend = make_linear_solver(rows[:, fz].tocsr(), "amg", rtol=tol, maxiter=maxiter)
+    Zf, info = backend.solve(R, None)
+    Z = np.zeros((kept.size, p))
+    Z[fixed], Z[fz] = vals, Zf
+    X = T @ Z + t
+    X[empty] = np.nan
+    report = {"vertices": n, "fixed": int(idx.size), "unknowns": int(fz.size), "components": int(ncomp),
+              "empty_components": comps, "equality_rows": int(Aeq.shape[0]), "eliminated": True,
+              "solver": backend.name, **{k: v for k, v in info.items() if k != "solver"},
+              "seconds": {"partition": t1 - t0, "setup": backend.setup_seconds, "solve": time.perf_counter() - t1}}
+    return X, report

@@ -120,7 +120,7 @@ def start_values(init, surface, idx, vals, *, checks=None, seed=0):
 
 
 def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error",
-                 iteration="gauss-seidel", x0=None, tol=None, maxiter=None):
+                 iteration="gauss-seidel", x0=None, tol=None, maxiter=None, lo=None, hi=None):
     """Steps 5-6: the harmonic fill with the values at ``idx`` fixed.
 
     Parameters
@@ -144,6 +144,9 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
         (e.g. ``lambda: start_values(...)``) is called only then.
     tol, maxiter : optional
         Passed to the solver.
+    lo, hi : (p,) array_like, optional
+        Bounds of the fill (see :meth:`manifill.surface.harmonic.HarmonicSolver.solve`);
+        ``vals`` must lie within them.
 
     Returns
     -------
@@ -176,7 +179,7 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
     start = None
     if hs.report["solver"] == "iterate":
         start = x0() if callable(x0) else x0
-    values = hs.solve(vals, x0=start)
+    values = hs.solve(vals, x0=start, lo=lo, hi=hi)
     report = {k: v for k, v in hs.report.items() if k != "seconds"}
     report["seconds"] = dict(hs.report["seconds"])
     return values, report

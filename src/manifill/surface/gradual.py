@@ -202,7 +202,9 @@ def _snap_levels(vals, levels):
 def _uniform(vals, step):
     lo = float(vals.min())
     m = int(np.floor(np.ptp(vals) / step + 0.5)) + 1
-    levels = lo + step * np.arange(m)
+    # the top level rounds to within half a step of the largest sample, possibly above it: cap it there,
+    # so that no level (and no gradually varied value) leaves the samples' range
+    levels = np.minimum(lo + step * np.arange(m), float(vals.max()))
     return levels, np.floor((vals - lo) / step + 0.5).astype(np.int64)
 
 

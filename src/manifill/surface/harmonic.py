@@ -157,7 +157,7 @@ class HarmonicSolver(QuadraticSolver):
         self.report = {**{k: r.pop(k) for k in order}, "weights": weights, **r,
                        "seconds": {**seconds, **r["seconds"]}}
 
-    def solve(self, vals, *, x0=None):
+    def solve(self, vals, *, x0=None, lo=None, hi=None, **kwargs):
         """Values at every vertex, harmonic away from ``idx``.
 
         Parameters
@@ -167,6 +167,12 @@ class HarmonicSolver(QuadraticSolver):
         x0 : (n,) or (n, p) array_like, optional
             Initial guess at every vertex, used by ``amg`` and ``iterate``
             (the paper starts from random values or from a GVF fit).
+        lo, hi : float or (p,) array_like, optional
+            Bounds: the minimiser of the Dirichlet energy subject to ``lo <= x <= hi``
+            (:func:`manifill.linalg.active_set.solve_bounded`); with non-negative
+            weights the maximum principle already holds and the loop stops at once.
+        **kwargs
+            Passed to :meth:`manifill.linalg.quadratic.QuadraticSolver.solve` (``linear``, ``beq``).
 
         Returns
         -------
@@ -177,9 +183,11 @@ class HarmonicSolver(QuadraticSolver):
         Raises
         ------
         SampleError
-            If ``vals`` has the wrong shape or NaN/infinite values.
+            If ``vals`` has the wrong shape or NaN/infinite values, or lies outside the bounds.
         """
-        return super().solve(vals, x0=x0)
+        if lo is None and hi is None:
+            return super().solve(vals, x0=x0, **kwargs)
+        return super().solve(vals, x0=x0, lo=lo, hi=hi, **kwargs)
 
 
 def harmonic(V, F, idx, vals, *, weights="cotan", solver="auto", on_empty="error",

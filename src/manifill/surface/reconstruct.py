@@ -33,17 +33,19 @@ from ..progress import tick
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, Result
 from ..validate import as_mesh, as_samples, check_option
 from .curve_values import CURVE_VALUES, values_on_curves
-from .energy_fill import ENERGY_METHODS, energy_fill
+from .energy_fill import ENERGY_METHODS, as_bounds, energy_fill
 from .fill import INITS, fill_patches, gvf_fill, start_values
 from .gradual import check_gradual, violation_message
 from .harmonic import ON_EMPTY
 from .partition import PARTITIONS
 from .partition import partition as _partition
+from .points import is_positions, point_samples, points_report
+from .samples import weights_by_vertex
 from .surface import Surface
 
 __all__ = ["METHODS", "STEPS", "INITS", "Reconstruction", "reconstruct", "reconstruct_surface", "check_options"]
 
-METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf")
+METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf", "rbf", "auto")
 
 #: The steps each method runs, in order, under the names it passes to ``progress``
 #: (:func:`reconstruct` runs ``graph`` before them; a progress bar's total is their count).
@@ -51,7 +53,9 @@ STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill")
          "harmonic": ("check", "harmonic fill"),
          "biharmonic": ("check", "biharmonic fill"),
          "triharmonic": ("check", "triharmonic fill"),
-         "gvf": ("check", "gvf")}
+         "gvf": ("check", "gvf"),
+         "rbf": ("check", "rbf"),
+         "auto": ("cross-validate", "fill")}
 
 
 @dataclass
@@ -80,7 +84,12 @@ class Reconstruction(Result):
     F : (m, 3) int64 numpy array or None
         Its triangles (None on a digital surface, which has none).
     idx : (k,) int64 numpy array
-        The sample vertices (sorted, unique).
+        The sample vertices (sorted, unique); for samples given as positions,
+        their nearest vertices.
+    points : SurfacePoints or None
+        For samples given as positions: each located at its closest surface point
+        (:class:`manifill.surface.locate.SurfacePoints`: face, barycentric
+        coordinates, distance, nearest vertex); ``None`` for vertex indices.
     """
 
     values: np.ndarray
@@ -92,6 +101,7 @@ class Reconstruction(Result):
     V: np.ndarray = None
     F: np.ndarray = None
     idx: np.ndarray = None
+    points: object = None
 
     @property
     def sample_mask(self):
@@ -153,7 +163,8 @@ class Reconstruction(Result):
 def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
                 distance="length", levels=None, curve_values="hermite", solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
-                tol=None, maxiter=None, bounds=None, smoothing=None, sample_weights=None, progress=None):
+                tol=None, maxiter=None, bounds=None, smoothing=None, sample_weights=None, max_distance=None,
+                progress=None):
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
 
     Parameters
@@ -162,15 +173,27 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         Vertex positions.
     F : (m, 3) array_like of int
         Triangles, any integer dtype.
-    idx : (k,) array_like of int
-        Sample vertices.
+    idx : (k,) array_like of int, or (k, 3) array_like of float
+        Sample vertices, or sample positions (``(k, 2)`` on a flat mesh), each
+        located at its closest surface point (:func:`manifill.surface.locate.locate_points`;
+        far points are refused, see ``max_distance``). The energy methods
+        constrain the field exactly there (a point inside a face: a linear
+        constraint on the face's three vertices: 'direct' factorises its KKT
+        system, 'amg' eliminates it, 'iterate' is refused); the partition methods
+        (``gvf-harmonic``, ``gvf``) use the nearest vertex. ``report['points']``
+        says which, with the largest distance; :attr:`Reconstruction.points`
+        keeps the located points.
     vals : (k,) or (k, p) array_like of float
         Sample values, one column per field.
-    method : {'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'gvf'}, optional
+    method : {'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'gvf', 'rbf', 'auto'}, optional
         The whole pipeline; harmonic, biharmonic or triharmonic with the
         samples alone fixed (the k-harmonic energy,
-        :mod:`manifill.surface.energy_fill`); or the gradually varied fit of
-        the whole surface (every vertex but the samples on a level).
+        :mod:`manifill.surface.energy_fill`); the gradually varied fit of
+        the whole surface (every vertex but the samples on a level); the
+        thin-plate spline on the positions, for fields that live in space
+        (:mod:`manifill.surface.rbf`; ``smoothing`` a number); or the
+        default candidate with the lowest 5-fold cross-validation error
+        (:mod:`manifill.surface.crossval`; ``report['auto']`` gives the table).
     partition : {'delaunay', 'cycle', 'tree'}, optional
         How the curves are drawn (:mod:`manifill.surface.partition`).
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
@@ -206,14 +229,22 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     tol, maxiter : optional
         Passed to the solver.
     bounds : None, 'samples' or (lo, hi), optional
-        Energy methods only: the minimiser subject to these bounds (per field;
-        ``'samples'``: each field's sample range), not a clip.
+        Per field (``'samples'``: each field's sample range). Energy methods: the
+        minimiser of the energy subject to the bounds (an active set), not a
+        clip. ``gvf-harmonic``: Step 4's curve values are projected onto the
+        bounds, then the harmonic fill is the bounded minimiser (with negative
+        cotangent weights the discrete maximum principle alone would not keep it
+        inside). ``gvf``: checked only (its values are levels within the samples'
+        range). ``rbf`` refuses bounds. Samples outside the bounds are refused.
     smoothing : None, float >= 0 or 'auto', optional
         Energy methods only: soft constraints with this lambda (``'auto'``:
         generalised cross-validation); ``report['harmonic']['smoothing']``
         gives lambda and the residuals at the samples.
     sample_weights : (k,) array_like of float, optional
         Weights of the soft constraints (with ``smoothing``).
+    max_distance : float, optional
+        For sample positions: the largest accepted distance to the surface (the
+        default as for :func:`manifill.surface.samples.snap_to_vertices`).
     progress : callable, optional
         Called with the name of each step as it starts (e.g.
         :class:`manifill.progress.StepBar`).
@@ -241,7 +272,20 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
     V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
     n = len(V)
-    idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
+    points, raw, vals_in = None, idx, vals
+    if is_positions(idx):
+        points = point_samples(V, F, idx, vals, duplicates=duplicates, max_distance=max_distance,
+                               nearest_only=method not in ENERGY_METHODS and method not in ("auto", "rbf"))
+        idx, vals, squeeze = points.nearest, points.nearest_vals, points.squeeze
+    elif max_distance is not None:
+        raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
+    else:
+        idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
+        if sample_weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
+            sample_weights = weights_by_vertex(raw, sample_weights, idx)
+    given = np.asarray(vals_in, dtype=np.float64).reshape(len(np.asarray(raw)), -1)
+    if bounds is not None:  # samples outside the bounds are named by the caller's row
+        as_bounds(bounds, given)
     seconds = {"validate": time.perf_counter() - t0}
 
     tick(progress, "graph")
@@ -251,7 +295,12 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     r = reconstruct_surface(surface, idx, vals, method=method, partition=partition, weights=weights,
                             levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
                             iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds,
-                            smoothing=smoothing, sample_weights=sample_weights, progress=progress, seconds=seconds)
+                            smoothing=smoothing, sample_weights=sample_weights, progress=progress, seconds=seconds,
+                            points=points)
+    smoothed = r.report.get("harmonic", {}).get("smoothing")
+    if smoothed is not None:  # residuals in the caller's rows and shape
+        at = r.points.interpolate(r.values) if points is not None else r.values[np.asarray(raw, dtype=np.int64)]
+        smoothed["residuals"] = (at - given)[:, 0] if squeeze else at - given
     if squeeze:
         r.values = r.values[:, 0]
     seconds["total"] = time.perf_counter() - t0
@@ -289,7 +338,7 @@ def check_options(method="gvf-harmonic", partition="delaunay", weights="cotan", 
 def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
                         levels=None, curve_values="hermite", solver="auto", on_empty="error",
                         iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None,
-                        smoothing=None, sample_weights=None, progress=None, seconds=None):
+                        smoothing=None, sample_weights=None, progress=None, seconds=None, points=None):
     """Steps 1-6 on a Surface and validated samples.
 
     Parameters
@@ -302,6 +351,10 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
         Sample values, one column per field (always two-dimensional).
     method, partition, weights, levels, curve_values, solver, on_empty, iteration, init, seed, tol, maxiter, progress
         As for :func:`reconstruct`.
+    points : PointSamples, optional
+        Samples given as positions (:func:`manifill.surface.points.point_samples`);
+        ``idx`` and ``vals`` are then their nearest vertices (the partition
+        methods' samples), and the energy methods constrain the points themselves.
     seconds : dict, optional
         Timings the caller measured before (e.g. ``validate``, ``graph``). The
         result's ``report['seconds']`` is this dict, filled in place with one
@@ -333,9 +386,24 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
     seconds = {} if seconds is None else seconds
     before = sum(seconds.values())
     check_options(method, partition, weights, "length", curve_values, solver, on_empty, iteration, init)
-    if (bounds is not None or smoothing is not None or sample_weights is not None) and method not in ENERGY_METHODS:
-        raise OptionError(f"bounds, smoothing and sample_weights apply to the energy methods "
-                          f"({', '.join(ENERGY_METHODS)}), not to method={method!r}; pick one of those")
+    if method == "rbf":  # the thin-plate spline in space (manifill.surface.rbf)
+        from .rbf import reconstruct_rbf
+
+        return reconstruct_rbf(surface, idx, vals, levels=levels, bounds=bounds, smoothing=smoothing,
+                               sample_weights=sample_weights, progress=progress, seconds=seconds, points=points)
+    if method == "auto":  # cross-validate the default candidates, fit the best (manifill.surface.crossval)
+        from .crossval import reconstruct_auto
+
+        options = dict(partition=partition, weights=weights, levels=levels, curve_values=curve_values, solver=solver,
+                       on_empty=on_empty, iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter,
+                       bounds=bounds, smoothing=smoothing, sample_weights=sample_weights)
+        return reconstruct_auto(surface, idx, vals, options=options, progress=progress, seconds=seconds,
+                                points=points)
+    if (smoothing is not None or sample_weights is not None) and method not in ENERGY_METHODS:
+        raise OptionError(f"smoothing and sample_weights apply to the energy methods "
+                          f"({', '.join(ENERGY_METHODS)}) and rbf, not to method={method!r}; pick one of those")
+    # the partition methods' bounds: checked here, applied to the curve values and the fill below
+    lohi = as_bounds(bounds, vals) if method in ("gvf-harmonic", "gvf") else None
     n = len(surface.V)
     report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
@@ -369,17 +437,22 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
         t = time.perf_counter()
         values = gvf_fill(surface, idx, vals, checks, on_empty=on_empty)
         seconds["gvf"] = time.perf_counter() - t
-    elif method in ENERGY_METHODS and (method != "harmonic" or bounds is not None or smoothing is not None):
+    elif method in ENERGY_METHODS and (method != "harmonic" or bounds is not None or smoothing is not None
+                                       or (points is not None and points.inside)):
         # the samples alone as constraints, on the k-harmonic energy (bounded or smoothed if asked)
         step = f"{method} fill"
         tick(progress, step)
         t = time.perf_counter()
+        eidx, evals, Aeq, beq, w = idx, vals, None, None, sample_weights
+        if points is not None:  # the points themselves: vertex constraints and barycentric rows
+            eidx, evals, w = points.idx, points.vals, None if w is None else points.weights(w)
+            Aeq, beq = (points.Aeq, points.beq) if points.inside else (None, None)
         values, report["harmonic"] = energy_fill(
-            surface, idx, vals, k=ENERGY_METHODS[method], weights=weights, solver=solver, on_empty=on_empty,
-            bounds=bounds, smoothing=smoothing, sample_weights=sample_weights, tol=tol, maxiter=maxiter)
+            surface, eidx, evals, k=ENERGY_METHODS[method], weights=weights, solver=solver, on_empty=on_empty,
+            bounds=bounds, smoothing=smoothing, sample_weights=w, tol=tol, maxiter=maxiter, Aeq=Aeq, beq=beq)
         seconds["harmonic"] = time.perf_counter() - t
     else:
-        b, bc = idx, vals
+        b, bc = (idx, vals) if points is None or method not in ENERGY_METHODS else (points.idx, points.vals)
         if method == "gvf-harmonic":
             # Step 4: values on the curves of the partition (Steps 2-3, above)
             report["partition"] = part.report
@@ -387,19 +460,30 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
             tick(progress, "curve values")
             t = time.perf_counter()
             b, bc = values_on_curves(surface, part, idx, vals, method=curve_values, checks=checks)
+            if lohi is not None:  # curve values projected onto the bounds (the samples lie within them)
+                bc2 = np.clip(bc if bc.ndim == 2 else bc[:, None], lohi[0], lohi[1])
+                report["bounds"] = {"lo": lohi[0].tolist(), "hi": lohi[1].tolist(),
+                                    "clipped_curve_values": int((bc2 != (bc if bc.ndim == 2 else bc[:, None])).sum())}
+                bc = bc2 if bc.ndim == 2 else bc2[:, 0]
             seconds["curve_values"] = time.perf_counter() - t
-        # Steps 5-6: harmonic fill of every patch
+        # Steps 5-6: harmonic fill of every patch (bounded: the minimiser within the bounds, an active set that
+        # stops at once where the maximum principle holds, i.e. without negative cotangent weights)
         tick(progress, "harmonic fill")
         t = time.perf_counter()
         values, report["harmonic"] = fill_patches(
             surface, b, bc, weights=weights, solver=solver, on_empty=on_empty, iteration=iteration,
-            x0=lambda: start_values(init, surface, idx, vals, checks=checks, seed=seed), tol=tol, maxiter=maxiter)
+            x0=lambda: start_values(init, surface, idx, vals, checks=checks, seed=seed), tol=tol, maxiter=maxiter,
+            **({} if lohi is None or method != "gvf-harmonic" else {"lo": lohi[0], "hi": lohi[1]}))
         values = values if values.ndim == 2 else values[:, None]
         seconds["harmonic"] = time.perf_counter() - t
-    lo, hi = vals.min(axis=0), vals.max(axis=0)
+    rng = vals if points is None else points.values
+    lo, hi = rng.min(axis=0), rng.max(axis=0)
     with np.errstate(invalid="ignore"):
         over = float(np.nanmax(np.maximum(values - hi, lo - values))) if np.isfinite(values).any() else 0.0
     report["overshoot"] = over
+    if points is not None:
+        report["points"] = points_report(points, method in ENERGY_METHODS)
     seconds["total"] = before + time.perf_counter() - t0
     return Reconstruction(values=values, curves=curves, components=components, on_curve=fixed,
-                          levels=[c.levels for c in checks], report=report, V=surface.V, F=surface.F, idx=idx)
+                          levels=[c.levels for c in checks], report=report, V=surface.V, F=surface.F, idx=idx,
+                          points=None if points is None else points.located)

@@ -8,9 +8,9 @@ from scipy.spatial import cKDTree
 from ..errors import SampleError
 from ..results import field_names
 from ..tolerances import TOL
-from ..validate import first_entries, as_samples, bbox_diagonal, unit_scale
+from ..validate import first_entries, as_samples, as_values, bbox_diagonal, unit_scale
 
-__all__ = ["Samples", "snap_to_vertices", "field_names"]
+__all__ = ["Samples", "snap_to_vertices", "sample_positions", "distance_limit", "refuse_far", "field_names"]
 
 
 @dataclass
@@ -31,6 +31,12 @@ class Samples:
         a vertex); ``None`` for samples given as vertex indices.
     merged : int
         How many input rows were merged into another sample on the same vertex.
+    points : (k, 3) numpy array or None
+        With ``keep_points``: the positions as given, one per input row (for
+        the energy methods, which constrain the field exactly there,
+        :func:`manifill.reconstruct`); ``None`` otherwise.
+    point_vals : (k, p) numpy array or None
+        Their values, one row per position.
     """
 
     idx: np.ndarray
@@ -38,6 +44,8 @@ class Samples:
     names: list = field(default_factory=list)
     snap_distance: np.ndarray = None
     merged: int = 0
+    points: np.ndarray = None
+    point_vals: np.ndarray = None
 
     @classmethod
     def from_indices(cls, idx, vals, n, *, names=None, duplicates="error"):
@@ -65,7 +73,7 @@ class Samples:
         return cls(uidx, uvals, field_names(names, uvals.shape[1]), None, k - uidx.size)
 
     @classmethod
-    def from_points(cls, V, points, vals, *, names=None, duplicates="error", max_distance=None):
+    def from_points(cls, V, points, vals, *, names=None, duplicates="error", max_distance=None, keep_points=False):
         """Snap sample positions to their nearest vertices, then validate.
 
         Parameters
@@ -84,6 +92,12 @@ class Samples:
         max_distance : float, optional
             Largest accepted snap distance, in the mesh's units (default: see
             :func:`snap_to_vertices`).
+        keep_points : bool, optional
+            Keep the positions and their values (:attr:`points`, :attr:`point_vals`)
+            for a reconstruction that locates them on the surface itself: no
+            distance is refused here (the surface's is checked there) and several
+            samples nearest one vertex are averaged into ``idx``, ``vals``
+            (which then only mark where the samples are).
 
         Returns
         -------
@@ -96,12 +110,16 @@ class Samples:
             gives the ratio to the mesh size and asks "wrong units?"), or
             conflicting values on one vertex.
         """
-        idx, dist = snap_to_vertices(V, points, max_distance=max_distance)
+        idx, dist = snap_to_vertices(V, points, max_distance=np.inf if keep_points else max_distance)
         k = idx.size
-        uidx, uvals, _ = as_samples(idx, vals, len(V), duplicates=duplicates)
+        uidx, uvals, _ = as_samples(idx, vals, len(V), duplicates="mean" if keep_points else duplicates)
         worst = np.zeros(len(V))
         np.maximum.at(worst, idx, dist)
-        return cls(uidx, uvals, field_names(names, uvals.shape[1]), worst[uidx], k - uidx.size)
+        S = cls(uidx, uvals, field_names(names, uvals.shape[1]), worst[uidx], k - uidx.size)
+        if keep_points:
+            S.points = sample_positions(np.asarray(V, dtype=np.float64), points)
+            S.point_vals = as_values(vals, k)[0]
+        return S
 
 
 def snap_to_vertices(V, points, *, max_distance=None):
@@ -145,32 +163,14 @@ def snap_to_vertices(V, points, *, max_distance=None):
     manifill.errors.SampleError: 1 samples lie far from the mesh (row 0: 900 from the nearest vertex, ...
     """
     V = np.asarray(V, dtype=np.float64)
-    try:
-        P = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SampleError("sample positions could not be read as numbers; pass a (k, 3) float array") from None
-    if P.ndim == 2 and P.shape[1] == 2 and V.shape[1] == 3:
-        P = np.column_stack([P, np.zeros(len(P))])
-    if P.ndim != 2 or P.shape[1] != V.shape[1] or P.shape[0] == 0:
-        raise SampleError(f"sample positions have shape {P.shape}; pass a (k, 3) array with at least one row")
-    bad = ~np.isfinite(P).all(axis=1)
-    if bad.any():
-        rows = first_entries(np.flatnonzero(bad))
-        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {rows}")
+    P = sample_positions(V, points)
     diag = bbox_diagonal(V)
     # the KD-tree compares squared distances: query in units of a power of two near the
     # mesh's size (exact), so that they neither overflow nor underflow, and scale back
     sc = unit_scale(V)
     inv = 1.0 / sc
     tree = cKDTree(V if sc == 1.0 else V * inv)
-    if max_distance is None:
-        # a sample anywhere on a coarse triangle may be an edge length from its vertex
-        spacing = float(tree.query(tree.data, k=2)[0][:, 1].max()) * sc if len(V) > 1 else 0.0
-        limit = TOL.snap * diag + spacing
-    else:
-        limit = float(max_distance)
-        if not limit >= 0:
-            raise SampleError(f"max_distance={max_distance!r} must be a distance >= 0 (inf for no limit)")
+    limit = distance_limit(tree, sc, diag, max_distance)
     with np.errstate(over="ignore"):
         Ps = P if sc == 1.0 else P * inv
     # positions so far out (in the mesh's units) that their squared distances would overflow:
@@ -186,14 +186,140 @@ def snap_to_vertices(V, points, *, max_distance=None):
         d = P[out] - V[0]
         m = np.abs(d).max(axis=1, keepdims=True)
         dist[out] = m[:, 0] * np.linalg.norm(d / m, axis=1)
-    far = np.flatnonzero(dist > limit)
+    refuse_far(dist, limit, diag, "the nearest vertex")
+    return idx.astype(np.int64), dist
+
+
+def sample_positions(V, points):
+    """Validate sample positions for a mesh: ``(k, 3)`` finite floats (``(k, 2)`` get ``z = 0``).
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+        Vertex positions.
+    points : (k, 3) or (k, 2) array_like
+        Positions.
+
+    Returns
+    -------
+    (k, 3) float64 numpy array
+
+    Raises
+    ------
+    SampleError
+        Not numbers, a wrong shape, no rows, NaN or infinite coordinates.
+    """
+    try:
+        P = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SampleError("sample positions could not be read as numbers; pass a (k, 3) float array") from None
+    if P.ndim == 2 and P.shape[1] == 2 and V.shape[1] == 3:
+        P = np.column_stack([P, np.zeros(len(P))])
+    if P.ndim != 2 or P.shape[1] != V.shape[1] or P.shape[0] == 0:
+        raise SampleError(f"sample positions have shape {P.shape}; pass a (k, 3) array with at least one row")
+    bad = ~np.isfinite(P).all(axis=1)
+    if bad.any():
+        rows = first_entries(np.flatnonzero(bad))
+        raise SampleError(f"sample positions have NaN or infinite coordinates in rows {rows}")
+    return P
+
+
+def distance_limit(tree, sc, diag, max_distance=None):
+    """The largest accepted distance from a sample position to the mesh.
+
+    Parameters
+    ----------
+    tree : scipy.spatial.cKDTree
+        The vertices, divided by ``sc``.
+    sc : float
+        Their unit scale (:func:`manifill.validate.unit_scale`).
+    diag : float
+        The mesh's bounding-box diagonal.
+    max_distance : float, optional
+        The caller's limit; by default ``TOL.snap * diag`` plus the largest
+        distance from a vertex to its nearest other vertex (so that a sample
+        anywhere on a coarse triangle is accepted).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    SampleError
+        ``max_distance`` negative or NaN.
+    """
+    if max_distance is None:
+        # a sample anywhere on a coarse triangle may be an edge length from its vertex
+        spacing = float(tree.query(tree.data, k=2)[0][:, 1].max()) * sc if tree.n > 1 else 0.0
+        return TOL.snap * diag + spacing
+    limit = float(max_distance)
+    if not limit >= 0:
+        raise SampleError(f"max_distance={max_distance!r} must be a distance >= 0 (inf for no limit)")
+    return limit
+
+
+def refuse_far(dist, limit, diag, what):
+    """Raise if a distance exceeds ``limit``: one line with the worst row, its ratio to the mesh and "wrong units?".
+
+    Parameters
+    ----------
+    dist : (k,) numpy array
+        Distance of each sample to ``what``.
+    limit, diag : float
+        The accepted distance, the mesh's size.
+    what : str
+        What the distance is measured to (``"the nearest vertex"``, ``"the surface"``).
+
+    Raises
+    ------
+    SampleError
+    """
+    far = np.flatnonzero(~(dist <= limit))
     if far.size:
         i = int(far[np.argmax(dist[far])])
         with np.errstate(over="ignore"):
             ratio = dist[i] / diag
         raise SampleError(
-            f"{far.size} samples lie far from the mesh (row {i}: {dist[i]:.3g} from the nearest vertex, "
+            f"{far.size} samples lie far from the mesh (row {i}: {dist[i]:.3g} from {what}, "
             f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? "
             f"Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-snap)"
         )
-    return idx.astype(np.int64), dist
+
+
+def weights_by_vertex(idx, w, vertices):
+    """Per-row sample weights carried to the sorted unique sample vertices (rows on one vertex add up).
+
+    Parameters
+    ----------
+    idx : (k,) array_like of int
+        The caller's sample vertices, in the caller's order (validated).
+    w : (k,) array_like of float
+        One weight per row.
+    vertices : (u,) int64 numpy array
+        The sorted unique vertices (``manifill.validate.as_samples``'s ``idx``).
+
+    Returns
+    -------
+    (u,) float64 numpy array
+
+    Raises
+    ------
+    SampleError
+        ``w`` is not one number per row.
+
+    Examples
+    --------
+    >>> weights_by_vertex([7, 3, 7], [1.0, 2.0, 0.5], np.array([3, 7])).tolist()
+    [2.0, 1.5]
+    """
+    idx = np.asarray(idx, dtype=np.int64).ravel()
+    try:
+        w = np.asarray(w, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SampleError("sample_weights could not be read as numbers; pass one weight > 0 per sample") from None
+    if w.shape != idx.shape:
+        raise SampleError(f"sample_weights has shape {w.shape} for {idx.size} samples; pass one weight per sample")
+    out = np.zeros(vertices.size)
+    np.add.at(out, np.searchsorted(vertices, idx), w)
+    return out

@@ -1,0 +1,154 @@
+"""The result of cross-validation (:func:`manifill.surface.crossval.cross_validate`): errors, table, advice."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["CrossValidation", "EXACT"]
+
+#: An error at or below this (relative to the range) is rounding: the method reproduces the held-out samples.
+EXACT = 1e-9
+
+
+@dataclass
+class CrossValidation:
+    """The result of :func:`cross_validate`: every candidate's error at held-out samples.
+
+    Attributes
+    ----------
+    methods : list of str
+        The candidates' labels (``"biharmonic bounds=samples"``), in the order given.
+    candidates : dict of str to (str, dict)
+        Label -> ``(method, options)``.
+    errors : dict of str to float
+        Label -> RMSE at the held-out samples over the sample range (fields combined
+        by root mean square); NaN if no fold ran.
+    field_errors : dict of str to (p,) numpy array
+        The same per field.
+    fold_errors : dict of str to (folds,) numpy array
+        The error of each fold's held-out samples (NaN where the fold failed).
+    seconds : dict of str to float
+        Time of all fits of each candidate.
+    failures : dict of str to dict of int to str
+        Label -> ``{fold: one-line reason}`` for the folds that raised.
+    excluded : dict of str to int
+        Label -> held-out samples with no prediction (NaN: a mesh component without
+        training samples), left out of the error.
+    folds : int
+        Number of folds (the number of samples for leave-one-out).
+    loo : bool
+        Leave-one-out.
+    seed : int
+        Seed of the split.
+    samples : int
+        Number of samples.
+    labels : (k,) int64 numpy array
+        The fold of every sample (in the order of the sorted sample vertices).
+    """
+
+    methods: list
+    candidates: dict
+    errors: dict
+    field_errors: dict
+    fold_errors: dict
+    seconds: dict
+    failures: dict
+    excluded: dict
+    folds: int
+    loo: bool
+    seed: int
+    samples: int
+    labels: np.ndarray = field(default=None, repr=False)
+
+    def ranking(self):
+        """The labels, best first: methods that ran on every fold by error, then the others."""
+        def key(m):
+            e = self.errors[m]
+            return (bool(self.failures[m]) or not np.isfinite(e), e if np.isfinite(e) else np.inf,
+                    self.methods.index(m))
+        return sorted(self.methods, key=key)
+
+    @property
+    def best(self):
+        """The label of the lowest error among the methods that ran on every fold (None if none did)."""
+        top = self.ranking()[0]
+        return None if self.failures[top] or not np.isfinite(self.errors[top]) else top
+
+    @property
+    def best_options(self):
+        """``dict(method=..., **options)`` of :attr:`best`, to pass to :func:`manifill.reconstruct`."""
+        if self.best is None:
+            return None
+        name, opts = self.candidates[self.best]
+        return {"method": name, **opts}
+
+    @property
+    def what(self):
+        """``"leave-one-out"`` or ``"5-fold"``."""
+        return "leave-one-out" if self.loo else f"{self.folds}-fold"
+
+    def table(self):
+        """One line per candidate, best first: error, worst fold, excluded samples, seconds, failures.
+
+        Returns
+        -------
+        str
+        """
+        width = max(len(m) for m in self.methods) + 2
+        p = len(next(iter(self.field_errors.values())))
+        lines = [f"{self.what} cross-validation of {self.samples:,} samples (seed {self.seed}); error: RMSE at "
+                 f"the held-out samples / the samples' range" + ("" if p == 1 else f", {p} fields combined"),
+                 f"{'rank':>4}  {'method':<{width}}{'error':>9}  {'worst fold':>10}  {'seconds':>8}  note"]
+        for r, m in enumerate(self.ranking(), 1):
+            e, fe = self.errors[m], self.fold_errors[m]
+            ok = not self.failures[m] and np.isfinite(e)
+            notes = []
+            if p > 1 and np.isfinite(e):
+                notes.append("per field " + ", ".join(_pct(x) for x in self.field_errors[m]))
+            if self.excluded[m]:
+                notes.append(f"{self.excluded[m]} held-out samples unreached (components without training samples)")
+            if self.failures[m]:
+                fold, reason = next(iter(self.failures[m].items()))
+                notes.append(f"failed on {len(self.failures[m])}/{self.folds} folds (fold {fold}: {reason})")
+            worst = _pct(np.nanmax(fe)) if np.isfinite(fe).any() else "-"
+            lines.append(f"{r if ok else '-':>4}  {m:<{width}}{_pct(e) if np.isfinite(e) else '-':>9}  {worst:>10}  "
+                         f"{self.seconds[m]:>8.2f}  {'; '.join(notes)}".rstrip())
+        return "\n".join(lines)
+
+    @property
+    def recommendation(self):
+        """One sentence: which method to use, by how much it wins, and what that suggests."""
+        best = self.best
+        if best is None:
+            return "No candidate ran on every fold; see the failures in the table."
+        name, opts = self.candidates[best]
+        call = ", ".join([f"method={name!r}"] + [f"{k}={v!r}" for k, v in opts.items()])
+        e = self.errors[best]
+        text = f"Use {call}: its {self.what} error is {_pct(e)} of the samples' range"
+        rest = [m for m in self.ranking() if m != best and np.isfinite(self.errors[m]) and not self.failures[m]]
+        if rest:
+            nxt = rest[0]
+            en = self.errors[nxt]
+            if en <= EXACT:
+                text += f", as is {nxt}'s: both reproduce the held-out samples to rounding"
+            elif e <= EXACT:
+                text += f": it reproduces the held-out samples to rounding, where the next, {nxt}, errs by {_pct(en)}"
+            elif en < 1.05 * e:
+                text += f", within 5% of {nxt} ({_pct(en)}), as good"
+            else:
+                text += f", {en / e:.3g}x lower than the next, {nxt} ({_pct(en)})"
+        if name == "rbf":
+            text += "; the field looks like it lives in space rather than on the surface"
+        return text + "."
+
+    def summary(self):
+        """A plain dict (for reports and JSON): ``methods``, ``errors``, ``chosen``, ``folds``, ``table``."""
+        return {"methods": self.ranking(), "errors": [float(self.errors[m]) for m in self.ranking()],
+                "chosen": self.best, "chosen_options": self.best_options, "folds": "loo" if self.loo else self.folds,
+                "what": self.what,
+                "seed": self.seed, "failures": {m: dict(f) for m, f in self.failures.items() if f},
+                "table": self.table(), "recommendation": self.recommendation}
+
+
+def _pct(x):
+    return f"{100.0 * float(x):.3g}%"

@@ -7,6 +7,7 @@ are fixed; the versions of every package used are written into the markdown.
 """
 
 import argparse
+import json
 import datetime
 import importlib.metadata
 import os
@@ -74,7 +75,8 @@ def intro(args, argv, started, elapsed):
 def leads_section(acc, spd):
     lines = ["## Where manifill leads and where it trails", "",
              "Computed from the tables above (default = `reconstruct()` with its defaults: gvf-harmonic, Delaunay "
-             "partition, Hermite curve values; the figures are rel. RMSE, lower is better).", ""]
+             "partition, monotone curve values, bounded by the samples' range; the figures are rel. RMSE, lower is "
+             "better).", ""]
     if acc is not None:
         lines += ["### In short", ""] + accuracy.headlines(acc)
     if spd is not None:
@@ -85,6 +87,34 @@ def leads_section(acc, spd):
     return lines
 
 
+def _jsonable(x):
+    import numpy as np
+
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(f"not JSON: {type(x).__name__}")
+
+
+def load_results(paths):
+    """The results of earlier ``--save`` runs, merged: accuracy cases concatenated, the first speed sweep."""
+    acc = spd = None
+    for p in paths:
+        d = json.loads(Path(p).read_text(encoding="utf-8"))
+        a = d.get("accuracy")
+        if a is not None:
+            if acc is None:
+                acc = a
+            else:
+                acc["cases"] += a["cases"]
+                acc["notes"] = list(dict.fromkeys(acc.get("notes", []) + a.get("notes", [])))
+                acc["seconds"] = acc.get("seconds", 0) + a.get("seconds", 0)
+        if spd is None and d.get("speed") is not None:
+            spd = d["speed"]
+    return {"accuracy": acc, "speed": spd}
+
+
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__.splitlines()[0])
@@ -93,6 +123,11 @@ def main(argv=None):
     ap.add_argument("--out", default="docs", help="folder for benchmarks.md and benchmarks/*.png (default: docs)")
     ap.add_argument("--cases", default=None,
                     help="accuracy: comma-separated case keys to run (default: all), e.g. head-eeg,sphere-noisy")
+    ap.add_argument("--save", default=None, help="also write the raw results to this JSON file")
+    ap.add_argument("--load", default=None,
+                    help="comma-separated JSON files of earlier --save runs: merge them (accuracy cases in the "
+                         "order given, the speed sweep from the file that has one) and write the tables, "
+                         "running nothing")
     args = ap.parse_args(argv)
 
     started = datetime.datetime.now()
@@ -106,21 +141,28 @@ def main(argv=None):
 
     acc = spd = None
     body = []
+    loaded = load_results(args.load.split(",")) if args.load else None
     if args.command in ("accuracy", "all"):
         log("accuracy:")
-        acc = accuracy.run_accuracy(args.smoke, log=log, only=args.cases.split(",") if args.cases else None)
+        if loaded is not None:
+            acc = loaded["accuracy"]
+        else:
+            acc = accuracy.run_accuracy(args.smoke, log=log, only=args.cases.split(",") if args.cases else None)
         for p in accuracy.plot(acc, png):
             log(f"  wrote {p}")
         body += accuracy.markdown(acc, "benchmarks")
     if args.command in ("speed", "scaling", "all"):
         log("speed and scaling:")
-        spd = speed.sweep(args.smoke, log=log)
+        spd = loaded["speed"] if loaded is not None else speed.sweep(args.smoke, log=log)
         if args.command in ("speed", "all"):
             body += speed.speed_markdown(spd)
         if args.command in ("scaling", "all"):
             p = speed.plot_scaling(spd, png / "scaling.png")
             log(f"  wrote {p}")
             body += speed.scaling_markdown(spd, "benchmarks")
+    if args.save:
+        Path(args.save).write_text(json.dumps({"accuracy": acc, "speed": spd}, default=_jsonable), encoding="utf-8")
+        log(f"wrote {args.save}")
     body += leads_section(acc, spd)
     text = intro(args, argv, started, time.perf_counter() - t0) + body
     md = out / "benchmarks.md"

@@ -44,7 +44,7 @@ def cell(case, name, k):
 # where manifill leads and trails, from the numbers
 # ---------------------------------------------------------------------------
 
-DEFAULT = "manifill gvf-harmonic, delaunay, hermite (default)"
+DEFAULT = "manifill default (gvf-harmonic, monotone, bounds=samples)"
 BIHARMONIC = "libigl biharmonic (k=2, points)"
 RBF = "SciPy RBF thin-plate spline (xyz)"
 HARMONIC = "libigl harmonic (k=1, points)"
@@ -196,7 +196,7 @@ def headlines(res):
                          f"jump is hard for every interpolant). Overshoot beyond the samples' range: none for "
                          f"{', '.join(bounded) or 'no method'}; "
                          + ", ".join(f"{res['short'][n]} {o:.2f}" for o, n in over) + " of the jump."
-                         + (" The default's Hermite curve values overshoot like the higher-order peers; its linear "
+                         + (" The default overshoots like the higher-order peers; the pipeline's linear "
                             "curve values do not." if c["rows"][DEFAULT][str(kr)]["ok"]
                             and c["rows"][DEFAULT][str(kr)]["over"] >= OVER_ZERO and res["short"][linear] in bounded
                             else ""))
@@ -224,7 +224,7 @@ def headlines(res):
                      f"`method='harmonic'`, the same rel. RMSE as `igl.harmonic` k=1 to 1e-6 in {same} cells): "
                      f"the default's rel. RMSE is {1 / g:.1f}x lower (geometric mean over every cell where both "
                      f"ran).")
-    # where the Hermite default hurts
+    # where the default's cubic curves hurt
     bad = []
     for c in res["cases"]:
         for k in c.get("ks", ks):
@@ -233,9 +233,9 @@ def headlines(res):
                 bad.append(f"{c['key']} k={k} ({a:.3f} vs {b:.3f})")
     if bad:
         lines.append("- **Where the default trails its own linear curve values** (by more than 25 %): "
-                     + ", ".join(bad) + ". Hermite slopes come from gradients estimated at the samples; when "
-                     "the samples are sparse against the field's variation the cubic along a long curve "
-                     "overshoots (see the overshoot column), and the patches inherit it.")
+                     + ", ".join(bad) + ". Cubic curve values take their slopes from gradients estimated at the "
+                     "samples; when the samples are sparse against the field's variation that estimate misleads the "
+                     "cubic along a long curve, and the patches inherit it.")
     # components
     if "ant" in cases:
         c = cases["ant"]

@@ -23,11 +23,12 @@ from manifill.mesh.shapes import icosphere
 CONFIGS = [
     ("harmonic (samples fixed)", dict(method="harmonic")),
     ("gvf (whole surface)", dict(method="gvf")),
-    ("gvf-harmonic, delaunay, hermite (default)", dict()),
-    ("gvf-harmonic, delaunay, linear", dict(curve_values="linear")),
-    ("gvf-harmonic, delaunay, gvf", dict(curve_values="gvf")),
-    ("gvf-harmonic, tree, hermite", dict(partition="tree")),
-    ("gvf-harmonic, cycle, hermite", dict(partition="cycle")),
+    ("default (gvf-harmonic, monotone, bounds=samples)", dict()),
+    ("gvf-harmonic, delaunay, hermite (the paper's pipeline)", dict(method="gvf-harmonic")),
+    ("gvf-harmonic, delaunay, linear", dict(method="gvf-harmonic", curve_values="linear")),
+    ("gvf-harmonic, delaunay, gvf", dict(method="gvf-harmonic", curve_values="gvf")),
+    ("gvf-harmonic, tree, hermite", dict(method="gvf-harmonic", partition="tree")),
+    ("gvf-harmonic, cycle, hermite", dict(method="gvf-harmonic", partition="cycle")),
 ]
 
 

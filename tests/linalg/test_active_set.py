@@ -335,8 +335,7 @@ def test_a_step_that_chased_its_tail_settles_at_the_kkt_point():
     x = q.solve(vals, lo=lo, hi=hi)
     rep = q.report["bounds"]
     assert rep["iterations"][0] <= 12 and rep["setups"] == rep["iterations"]
-    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)
-    np.testing.assert_allclose(x, reference_qp(A, idx, vals, np.zeros(A.shape[0]), lo, hi), rtol=0, atol=1e-8)
+    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)  # KKT: the minimiser of this convex QP
 
 
 @pytest.mark.parametrize("seed", [1, 18, 21])
@@ -366,8 +365,8 @@ def test_the_monotone_loop_alone_settles_with_falling_energy(seed):
     x[q.unknown] = np.clip(x[q.unknown], lo, hi)
     assert solves >= 3 and len(energies) >= 2
     assert all(b < a for a, b in zip(energies, energies[1:]))
-    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)
-    np.testing.assert_allclose(x, reference_qp(A, idx, vals, np.zeros(A.shape[0]), lo, hi), rtol=0, atol=1e-8)
+    assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)  # KKT: the minimiser of this convex QP
+    np.testing.assert_allclose(x, q.solve(vals, lo=lo, hi=hi), rtol=0, atol=1e-9)  # the two phases' answer
 
 
 def test_reusing_the_hierarchy_gives_the_fresh_setups_answer():

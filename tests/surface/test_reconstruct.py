@@ -351,9 +351,17 @@ def test_hermite_on_sparse_samples_stays_in_range_and_beats_linear():
 # ---------------------------------------------------------------------------
 
 
-def compose(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan", distance="length",
-            levels=None, curve_values="hermite", solver="auto", init="gvf", seed=0):
-    """Steps 1-6 by hand, from the public functions only, in the order the paper's pipeline runs them."""
+def compose(V, F, idx, vals, *, method=None, partition="delaunay", weights="cotan", distance="length",
+            levels=None, curve_values=None, solver="auto", init="gvf", seed=0):
+    """Steps 1-6 by hand, from the public functions only, in the order the paper's pipeline runs them.
+
+    The default (no method given) is the pipeline with monotone curve values (unless given), projected onto
+    the samples' range, and the harmonic fill bounded by it.
+    """
+    bounded = method is None
+    if method is None:
+        method, curve_values = "gvf-harmonic", curve_values or "monotone"
+    curve_values = curve_values or "hermite"
     from manifill.surface.curve_values import values_on_curves
     from manifill.surface.fill import fill_patches, gvf_fill, start_values
     from manifill.surface.gradual import check_gradual
@@ -370,13 +378,17 @@ def compose(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", wei
         out = gvf_fill(s, idx, X, checks)
     else:
         b, bc = values_on_curves(s, part, idx, X, method=curve_values, checks=checks) if part else (idx, X)
+        lohi = {"lo": X.min(axis=0), "hi": X.max(axis=0)} if bounded and part else {}
+        bc = np.clip(bc, lohi["lo"], lohi["hi"]) if lohi else bc
         out, _ = fill_patches(s, b, bc, weights=weights, solver=solver,
-                              x0=lambda: start_values(init, s, idx, X, checks=checks, seed=seed))
+                              x0=lambda: start_values(init, s, idx, X, checks=checks, seed=seed), **lohi)
     return (out[:, 0] if squeeze else out), part, checks
 
 
 COMPOSITIONS = [
     {},
+    {"method": "gvf-harmonic"},
+    {"method": "gvf-harmonic", "curve_values": "hermite", "partition": "cycle"},
     {"partition": "cycle"},
     {"partition": "tree", "curve_values": "linear"},
     {"curve_values": "gvf", "round": True},

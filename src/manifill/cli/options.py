@@ -70,12 +70,14 @@ def energy_args(s):
                         "cross-validation)")
 
 
-def pipeline_args(s, *, method_help="default: gvf-harmonic"):
+def pipeline_args(s, *, method_help="default: the measured default, gvf-harmonic with monotone curve values and "
+                                     "--bounds samples (pass --method gvf-harmonic for the paper's pipeline alone)"):
     """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
-    s.add_argument("--method", choices=METHODS, default="gvf-harmonic",
+    s.add_argument("--method", choices=METHODS, default=None,
                    help=f"{method_help}; rbf: the thin-plate spline in space; auto: the candidate with the lowest "
                         f"5-fold cross-validation error (see 'manifill cv')")
     s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
-    s.add_argument("--curve-values", choices=CURVE_VALUES, default="hermite", help="default: hermite")
+    s.add_argument("--curve-values", choices=CURVE_VALUES, default=None,
+                   help="default: monotone for the default method, hermite for --method gvf-harmonic")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")

@@ -41,7 +41,7 @@ def run(args):
         from ..mesh.subdivide import check_subdivide
 
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
-    bar = step_bar(args, ("graph",) + STEPS[args.method])
+    bar = step_bar(args, ("graph",) + STEPS[args.method or "gvf-harmonic"])
     try:
         where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
                                                                              max_distance=args.max_snap)
@@ -78,6 +78,9 @@ def run(args):
         state = "holds" if c["holds"] else f"fails for {c['violations']} samples"
         print(f"step 1 ({name}): {c['levels']} levels, Lipschitz {c['lipschitz_hops']:.4g} per hop; "
               f"gradual variation {state}")
+    if rep.get("default"):
+        print(f"method: the default (gvf-harmonic, {rep.get('curve_values')} curve values, bounded by the samples' "
+              f"range; --method gvf-harmonic for the paper's pipeline alone)")
     if "partition" in rep:
         pr = rep["partition"]
         print(f"steps 2-3: {pr['method']} partition, {pr['curves']} curves through {pr['curve_vertices']:,} "
@@ -104,5 +107,5 @@ def run(args):
         print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
     print_time(args, rep["seconds"])
     print_ranges(X, S, out)
-    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method}")
+    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}")
     return 0

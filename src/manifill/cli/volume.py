@@ -41,7 +41,8 @@ def add_parser(sub):
                    help="surface Laplacian weights (default: cotan; uniform on a voxel mask, whose digital surface "
                         "has no triangles)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="surface linear solver (default: auto)")
-    pipeline_args(s, method_help="surface method (default: gvf-harmonic)")
+    pipeline_args(s, method_help="surface method (default: the measured default, gvf-harmonic with monotone curve "
+                                     "values and --bounds samples)")
     s.add_argument("--render", default=None, metavar="OUT.png",
                    help="also render three slices through the solid (voxels) or its boundary (tets) as a PNG")
     s.add_argument("--field", default=None, metavar="NAME", help="the field --render draws (default: the first)")
@@ -81,7 +82,7 @@ def run(args):
                            [args.mesh, args.samples])
     # the mask's digital surface is built without a "graph" step; a surface is first voxelised or tetrahedralised
     solid = {"mask": (), "tets": ()}.get(kind, ("voxelize",) if form == "voxels" else ("tetrahedralize",))
-    bar = step_bar(args, ("graph",) * (kind != "mask") + STEPS[args.method] + solid + ("fill",))
+    bar = step_bar(args, ("graph",) * (kind != "mask") + STEPS[args.method or "gvf-harmonic"] + solid + ("fill",))
     surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
                         levels=levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
                         solver=args.solver, progress=bar)

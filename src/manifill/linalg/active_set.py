@@ -10,32 +10,40 @@ a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with
 where ``x_i = hi`` (``g_i`` is the multiplier of the bound, and complementarity
 holds since an index is either strictly inside or at its bound).
 
-The loop, one field at a time, keeps a *face* (indices fixed at a bound) and a
-feasible point ``z`` on it, and solves for ``y``, the minimiser on the face:
+The loop, one field at a time, keeps a *face* (free indices fixed at a bound)
+and solves for ``y``, the minimiser of ``q`` on it, from the unbounded
+minimiser (the empty face). Two phases:
 
-- if ``y`` violates a bound, ``z`` moves towards ``y``: to the projection
-  ``clip(y)`` when that lowers ``q`` (every violator joins the face at once),
-  otherwise along the segment to the first bound it meets (those join; ``q``
-  does not rise, by convexity). The face grows at every such step;
-- if ``y`` is feasible it is the minimiser of its face; when every multiplier
-  has the right sign it is the answer, otherwise every wrong-signed index
-  leaves the face (or, if one of them would at once leave the box the other
-  way, only the worst), and ``q`` falls strictly.
+1. *Primal-dual steps* (a semismooth Newton step of the box, as for obstacle
+   problems): every index of the face whose multiplier has the wrong sign
+   leaves it, and every free index whose violation is a *peak* (at least that
+   of each neighbour in ``A``'s graph) joins it, in one step. Fixing only the
+   peaks, not every violator, matters: the bounded minimiser touches its bound
+   on far fewer indices than the unbounded one violates it (42 against 271 on
+   a 10k sphere), and fixing them all, then releasing a ring at a time, took
+   libigl's loop (fix all, release all) 69 re-solves where this takes 12.
+   The phase ends at the KKT point, or when a face comes back (it may cycle).
+2. *A monotone loop*, from there on, with a feasible point ``z`` on the face.
+   If ``y`` violates a bound, ``z`` moves towards ``y``: to the projection
+   ``clip(y)`` when that lowers ``q`` (every violator joins the face),
+   otherwise along the segment to the first bound it meets (those join; ``q``
+   does not rise, by convexity); the face grows at every such step. If ``y``
+   is feasible it minimises its face; when every multiplier has the right
+   sign it is the answer, otherwise every wrong-signed index leaves the face
+   (only the worst, if one of them would at once leave the box the other
+   way), and ``q`` falls strictly. So ``q`` falls from one feasible face
+   minimiser to the next, no face comes back, and the loop ends (a finite
+   rule; a face seen again, possible only by round-off, is an error).
 
-So ``q`` falls strictly from one feasible face minimiser to the next, no face
-can come back, and the loop ends (a finite rule; a face seen again, possible
-only by round-off, is reported as a cycle). Releasing every wrong-signed index
-and fixing every violator at once, without the test on ``q``, is libigl's
-``active_set``; it can chase its own tail (one move undoing the other), which
-the test on ``q`` rules out.
-
-Re-solves reuse the work of the first solve: every face solve starts from the
-current point, and with the ``amg`` backend it runs conjugate gradients on the
-face's system ``A_FF`` preconditioned by the unbounded system's hierarchy
-restricted to the free set (``R M^-1 R^T``, symmetric positive definite):
-no new set-up. The ``direct`` backend factorises each face anew (its systems
-are small; preconditioned CG with the full factorisation was not faster);
-``iterate`` and equality rows too.
+Both phases are finite (phase 1 stops at the first repeated face), so the
+loop always settles; ``maxiter`` caps the face solves all the same. Every face
+solve starts from the current point (``x0``, for ``amg``); each sets the
+backend up anew for its face (a factorisation for ``direct``, a hierarchy for
+``amg``). ``reuse=True`` instead runs conjugate gradients on the face's system
+``A_FF`` preconditioned by the unbounded hierarchy restricted to the free set
+(``R M^-1 R^T``, symmetric positive definite, no set-up): the same answer,
+but 1.4x slower on a 10k bilaplacian (14 faces: 6,848 CG steps, 300-650 per
+face; 40 s against 29 s with a new hierarchy per face), so it is off.
 
 With equality rows ``Aeq x = beq`` (points inside faces) the older loop runs
 (fix every violator, then release every wrong-signed multiplier, with the
@@ -136,7 +144,8 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
         Cap on the face solves of one field.
     reuse : bool, optional
         With the ``amg`` backend, precondition every face solve by ``q``'s
-        hierarchy (no new set-up); False sets a backend up for every face.
+        hierarchy (no new set-up); False (the default, faster as measured)
+        sets a backend up for every face.
 
     Returns
     -------
@@ -348,7 +357,7 @@ def _monotone(faces, y, side, solves, tol_x, tol_g, maxiter, field):
             z, ez = x, faces.energy(x)
             worst = int(np.argmax(wrong))
             undo = (side.copy(), worst) if np.count_nonzero(wrong > tol_g) > 1 else None
-            side[wrong < -tol_g] = 0  # release every wrong-signed index
+            side[wrong > tol_g] = 0  # release every wrong-signed index
         elif z is None:  # the unbounded minimiser: clip it
             side[low], side[high] = -1, 1
             z = y.copy()

@@ -38,7 +38,8 @@ from .threads import workers
 from ..tolerances import TOL
 from ..validate import check_option
 
-__all__ = ["SOLVERS", "ITERATIONS", "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver"]
+__all__ = ["SOLVERS", "ITERATIONS", "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver",
+           "direct_factoriser"]
 
 SOLVERS = ("auto", "direct", "amg", "iterate")
 ITERATIONS = ("gauss-seidel", "jacobi")
@@ -52,8 +53,51 @@ def _columns(R):
     return R[:, None] if R.ndim == 1 else R
 
 
+#: Environment variable naming the factorisation of ``solver='direct'``: ``superlu`` or ``pardiso``
+#: (default: ``pardiso`` when the optional ``pypardiso`` is installed, the ``[fast]`` extra).
+DIRECT_ENV = "MANIFILL_DIRECT"
+
+
+def direct_factoriser():
+    """The sparse factorisation ``solver='direct'`` uses: ``'pardiso'`` if pypardiso imports, else ``'superlu'``.
+
+    Measured (docs/NOTES.md, 2026-12-01): Intel MKL's Pardiso through pypardiso factorises the
+    reduced bilaplacian of a 41k-vertex sphere about 4x faster than SuperLU, with the same values to
+    1e-11. ``MANIFILL_DIRECT=superlu`` forces SciPy's SuperLU.
+
+    Examples
+    --------
+    >>> direct_factoriser() in ("pardiso", "superlu")
+    True
+    """
+    import os
+
+    want = os.environ.get(DIRECT_ENV, "").strip().lower()
+    if want == "superlu":
+        return "superlu"
+    try:
+        import pypardiso  # noqa: F401
+    except ImportError:
+        return "superlu"
+    return "pardiso"
+
+
+class _PardisoFactor:
+    """``solve(B)`` with a Pardiso factorisation kept by its solver object (the SuperLU interface)."""
+
+    def __init__(self, solver, A):
+        self._solver, self._A = solver, A
+
+    def solve(self, B):
+        X = self._solver.solve(self._A, np.ascontiguousarray(B, dtype=np.float64))
+        return np.asarray(X, dtype=np.float64).reshape(np.shape(B))
+
+
 class DirectSolver:
     """Sparse LU factorisation of ``A``, reused for every right-hand side.
+
+    SuperLU from SciPy, or Intel MKL's Pardiso when the optional ``pypardiso`` is
+    installed (:func:`direct_factoriser`; ``factoriser`` says which ran).
 
     Parameters
     ----------
@@ -78,7 +122,19 @@ class DirectSolver:
             check_fits(lu_memory(n, A.nnz, dim=1 if A.nnz <= 3.5 * n else 2),
                        f"the sparse LU factorisation of {n:,} unknowns (solver='direct')",
                        "use solver='amg' (CLI --solver amg, or --fill-solver amg for a volume fill)")
-        self._lu = splu(sp.csc_matrix(A)) if A.shape[0] else None
+        self.factoriser = direct_factoriser() if n else "superlu"
+        if not n:
+            self._lu = None
+        elif self.factoriser == "pardiso":
+            import pypardiso
+
+            self._A = sp.csr_matrix(A)
+            self._A.sort_indices()
+            self._pardiso = pypardiso.PyPardisoSolver()  # real non-symmetric: also the KKT systems
+            self._pardiso.factorize(self._A)
+            self._lu = _PardisoFactor(self._pardiso, self._A)
+        else:
+            self._lu = splu(sp.csc_matrix(A))
 
     def solve(self, R, x0=None):
         """Solve ``A X = R``.

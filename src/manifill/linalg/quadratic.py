@@ -38,11 +38,12 @@ Extension points (the next methods plug in here, without reshaping the above):
   ``beq - Aeq_b vals``) and the KKT system ``[[A_II, Aeq_I^T], [Aeq_I, 0]]``
   (symmetric indefinite) is factorised. Next: a null-space basis for the
   iterative backends.
-- *Bounds* ``lo <= x <= hi`` (``solve(vals, lo=..., hi=...)``): the primal
+- *Bounds* ``lo <= x <= hi`` (``solve(vals, lo=..., hi=...)``): the
   active-set loop of :mod:`manifill.linalg.active_set` around
   :meth:`QuadraticSolver.solve`; it moves violated indices into ``idx`` at
   their bound (:meth:`QuadraticSolver.fixing`, the same reduction), and
-  releases those whose multiplier ``(A x + c)_i`` has the wrong sign.
+  releases those whose multiplier ``(A x + c)_i`` has the wrong sign
+  (primal-dual steps, then a monotone loop that always settles).
 """
 
 import time

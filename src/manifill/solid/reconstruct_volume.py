@@ -368,8 +368,8 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
 
 
 def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6,
-                            fill_solver="auto", method="gvf-harmonic", partition="delaunay", weights="uniform",
-                            distance="length", levels=None, curve_values="hermite", solver="auto",
+                            fill_solver="auto", method=None, partition="delaunay", weights="uniform",
+                            distance="length", levels=None, curve_values=None, solver="auto",
                             duplicates="error", progress=None):
     """Steps 1-8 on a voxel mask: reconstruct on its digital boundary surface, fill the inside.
 

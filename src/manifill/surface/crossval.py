@@ -16,7 +16,8 @@ on a digital surface (no triangles). Options given to :func:`cross_validate` go 
 candidate; a candidate's own options override them. Samples may be vertex indices or
 positions (``(k, 3)``, located on the surface as :func:`manifill.reconstruct` locates them).
 
-``reconstruct(..., method="auto")`` cross-validates the default candidates with
+``reconstruct(..., method="auto")`` cross-validates :data:`AUTO_CANDIDATES` (the default
+candidates less the bounded biharmonic and the triharmonic, which cost most) with
 :data:`AUTO_FOLDS` folds (leave-one-out below that many samples; the split seeded by
 ``seed``), then reconstructs with the lowest-error one on all samples: the result equals
 ``reconstruct(..., method=<chosen>, <its options>)``, and ``report['auto']`` holds the
@@ -38,12 +39,16 @@ from .points import is_positions, point_samples
 from .reconstruct import METHODS, check_options, reconstruct_surface
 from .surface import Surface
 
-__all__ = ["CANDIDATES", "AUTO_FOLDS", "MIN_SAMPLES", "CrossValidation", "cross_validate", "fold_labels",
-           "reconstruct_auto"]
+__all__ = ["CANDIDATES", "AUTO_CANDIDATES", "AUTO_FOLDS", "MIN_SAMPLES", "CrossValidation", "cross_validate",
+           "fold_labels", "reconstruct_auto"]
 
 #: The default candidates: ``(method, options)``.
 CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"}), ("harmonic", {}),
               ("biharmonic", {}), ("biharmonic", {"bounds": "samples"}), ("triharmonic", {}), ("rbf", {}))
+#: The candidates of ``method="auto"``: the default ones less the slow ones (the bounded biharmonic's active
+#: set and the triharmonic factorisation cost 5-20x the others per fold at 41k vertices; measured in
+#: docs/NOTES.md), so that ``auto`` costs a few times one fit.
+AUTO_CANDIDATES = tuple(c for c in CANDIDATES if c not in (("biharmonic", {"bounds": "samples"}), ("triharmonic", {})))
 #: Folds of ``method="auto"``.
 AUTO_FOLDS = 5
 #: Fewest samples cross-validation accepts (every fit then has at least two).
@@ -359,7 +364,9 @@ def reconstruct_auto(surface, idx, vals, *, options, progress=None, seconds=None
     tick(progress, "cross-validate")
     t = time.perf_counter()
     fit = {key: v for key, v in options.items() if key != "on_empty"}
-    cv = run_folds(surface, idx, vals, candidates_of(None, digital=surface.F is None), folds=folds,
+    digital = surface.F is None  # no triangles: no mass matrix for the biharmonic energy
+    auto = [c for c in AUTO_CANDIDATES if not (digital and c[0] in ("biharmonic", "triharmonic"))]
+    cv = run_folds(surface, idx, vals, candidates_of(auto, digital=digital), folds=folds,
                    seed=options.get("seed", 0), options={key: v for key, v in fit.items() if key != "seed"})
     seconds["cross_validate"] = time.perf_counter() - t
     if cv.best is None:

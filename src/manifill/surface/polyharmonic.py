@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 
+from ..linalg.backends import direct_factoriser
 from ..linalg.energies import polyharmonic_energy
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..mesh.laplacian import assemble_laplacian, mass_matrix
@@ -174,6 +175,10 @@ class PolyharmonicSolver(QuadraticSolver):
 
     #: ``solver="auto"`` factorises a biharmonic system of at most this many unknowns, and every triharmonic one.
     AUTO_DIRECT_MAX = 5_000
+    #: The same bound when Pardiso factorises (:func:`manifill.linalg.backends.direct_factoriser`): measured
+    #: 3.6 s against 7.3 s for AMG at 41k vertices and 25 s against 102 s at 164k (biharmonic, 100 samples,
+    #: both runs on one loaded machine), so ``auto`` factorises up to here.
+    AUTO_DIRECT_MAX_PARDISO = 200_000
     #: Default iteration cap of ``amg`` (a 4th-order operator needs hundreds of iterations on large meshes).
     MAXITER = 5000
 
@@ -213,7 +218,8 @@ class PolyharmonicSolver(QuadraticSolver):
         maxiter : int
         """
         if solver == "auto":
-            solver = "amg" if k == 2 and free > cls.AUTO_DIRECT_MAX else "direct"
+            most = cls.AUTO_DIRECT_MAX_PARDISO if direct_factoriser() == "pardiso" else cls.AUTO_DIRECT_MAX
+            solver = "amg" if k == 2 and free > most else "direct"
         return (solver, TOL.polyharmonic_rtol if tol is None else tol,
                 cls.MAXITER if maxiter is None else maxiter)
 

@@ -26,37 +26,21 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import OptionError, SampleError
-from ..linalg.backends import ITERATIONS, SOLVERS
-from ..mesh.graph import DISTANCES
-from ..mesh.laplacian import WEIGHTS
 from ..progress import tick
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, Result
-from ..validate import as_mesh, as_samples, check_option
-from .curve_values import CURVE_VALUES, values_on_curves
+from ..validate import as_mesh, as_samples
+from .curve_values import values_on_curves
 from .energy_fill import ENERGY_METHODS, as_bounds, energy_fill
 from .fill import INITS, fill_patches, gvf_fill, start_values
 from .gradual import check_gradual, violation_message
-from .harmonic import ON_EMPTY
-from .partition import PARTITIONS
 from .partition import partition as _partition
 from .points import is_positions, point_samples, points_report
 from .samples import weights_by_vertex
+from .methods import DEFAULT, METHODS, STEPS, check_options, resolve_default
 from .surface import Surface
 
-__all__ = ["METHODS", "STEPS", "INITS", "Reconstruction", "reconstruct", "reconstruct_surface", "check_options"]
-
-METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf", "rbf", "auto")
-
-#: The steps each method runs, in order, under the names it passes to ``progress``
-#: (:func:`reconstruct` runs ``graph`` before them; a progress bar's total is their count).
-STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill"),
-         "harmonic": ("check", "harmonic fill"),
-         "biharmonic": ("check", "biharmonic fill"),
-         "triharmonic": ("check", "triharmonic fill"),
-         "gvf": ("check", "gvf"),
-         "rbf": ("check", "rbf"),
-         "auto": ("cross-validate", "fill")}
-
+__all__ = ["METHODS", "STEPS", "INITS", "DEFAULT", "Reconstruction", "reconstruct", "reconstruct_surface",
+           "check_options", "resolve_default"]
 
 @dataclass
 class Reconstruction(Result):
@@ -160,8 +144,8 @@ class Reconstruction(Result):
         return to_meshio(self.V, self.F, self.point_data(names))
 
 
-def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
-                distance="length", levels=None, curve_values="hermite", solver="auto",
+def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="cotan",
+                distance="length", levels=None, curve_values=None, solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
                 tol=None, maxiter=None, bounds=None, smoothing=None, sample_weights=None, max_distance=None,
                 progress=None):
@@ -185,8 +169,11 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         keeps the located points.
     vals : (k,) or (k, p) array_like of float
         Sample values, one column per field.
-    method : {'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'gvf', 'rbf', 'auto'}, optional
-        The whole pipeline; harmonic, biharmonic or triharmonic with the
+    method : {None, 'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'gvf', 'rbf', 'auto'}, optional
+        None (the default): :data:`DEFAULT`, chosen by measurement: the paper's
+        pipeline with ``curve_values='monotone'`` and ``bounds='samples'`` (each
+        unless given; ``report['default']`` is True). The whole pipeline
+        (the paper's method, unbounded unless ``bounds`` is given); harmonic, biharmonic or triharmonic with the
         samples alone fixed (the k-harmonic energy,
         :mod:`manifill.surface.energy_fill`); the gradually varied fit of
         the whole surface (every vertex but the samples on a level); the
@@ -207,12 +194,13 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
         by default the finest uniform step at which the samples satisfy the
         condition. With ``curve_values='gvf'`` or ``method='gvf'`` a
         violation is an error; otherwise it is reported.
-    curve_values : {'hermite', 'linear', 'gvf'}, optional
+    curve_values : {None, 'hermite', 'monotone', 'linear', 'gvf'}, optional
         Step 4 (:mod:`manifill.surface.curve_values`): cubic along each path with slopes
-        from estimated gradients (the most accurate on smooth fields; may
-        overshoot slightly, reported as ``report['overshoot']``), linear in arc
-        length (never leaves the samples' range), or the paper's gradually
-        varied fit on the levels.
+        from estimated gradients (linear in the data; may overshoot, reported as
+        ``report['overshoot']``), the monotone cubic (never outside the neighbouring
+        samples), linear in arc length, or the paper's gradually varied fit on the
+        levels. None: ``'monotone'`` for the default method, ``'hermite'`` for an
+        explicit ``method='gvf-harmonic'``.
     solver : {'auto', 'direct', 'amg', 'iterate'}, optional
         Linear solver of the harmonic fill.
     on_empty : {'error', 'nan'}, optional
@@ -269,6 +257,8 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     (True, 'delaunay')
     """
     t0 = time.perf_counter()
+    default = method is None
+    method, curve_values, bounds = resolve_default(method, curve_values, bounds)
     check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
     V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
     n = len(V)
@@ -297,6 +287,7 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
                             iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds,
                             smoothing=smoothing, sample_weights=sample_weights, progress=progress, seconds=seconds,
                             points=points)
+    r.report["default"] = default
     smoothed = r.report.get("harmonic", {}).get("smoothing")
     if smoothed is not None:  # residuals in the caller's rows and shape
         at = r.points.interpolate(r.values) if points is not None else r.values[np.asarray(raw, dtype=np.int64)]
@@ -307,36 +298,8 @@ def reconstruct(V, F, idx, vals, *, method="gvf-harmonic", partition="delaunay",
     return r
 
 
-def check_options(method="gvf-harmonic", partition="delaunay", weights="cotan", distance="length",
-                  curve_values="hermite", solver="auto", on_empty="error", iteration="gauss-seidel", init="gvf"):
-    """Check the options of :func:`reconstruct` against their closed sets (defaults as there).
-
-    Raises
-    ------
-    OptionError
-        An option outside its set; the message lists the allowed values.
-
-    Examples
-    --------
-    >>> check_options(method="gvf", distance="hops")
-    >>> check_options(method="fast")
-    Traceback (most recent call last):
-    ...
-    manifill.errors.OptionError: method='fast' is not one of 'gvf-harmonic', 'harmonic', ... pass one of those
-    """
-    check_option("method", method, METHODS)
-    check_option("partition", partition, PARTITIONS)
-    check_option("weights", weights, WEIGHTS)
-    check_option("distance", distance, DISTANCES)
-    check_option("curve_values", curve_values, CURVE_VALUES)
-    check_option("solver", solver, SOLVERS)
-    check_option("on_empty", on_empty, ON_EMPTY)
-    check_option("iteration", iteration, ITERATIONS)
-    check_option("init", init, INITS)
-
-
-def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition="delaunay", weights="cotan",
-                        levels=None, curve_values="hermite", solver="auto", on_empty="error",
+def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay", weights="cotan",
+                        levels=None, curve_values=None, solver="auto", on_empty="error",
                         iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None,
                         smoothing=None, sample_weights=None, progress=None, seconds=None, points=None):
     """Steps 1-6 on a Surface and validated samples.
@@ -385,6 +348,7 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
     t0 = time.perf_counter()
     seconds = {} if seconds is None else seconds
     before = sum(seconds.values())
+    method, curve_values, bounds = resolve_default(method, curve_values, bounds)
     check_options(method, partition, weights, "length", curve_values, solver, on_empty, iteration, init)
     if method == "rbf":  # the thin-plate spline in space (manifill.surface.rbf)
         from .rbf import reconstruct_rbf
@@ -405,7 +369,8 @@ def reconstruct_surface(surface, idx, vals, *, method="gvf-harmonic", partition=
     # the partition methods' bounds: checked here, applied to the curve values and the fill below
     lohi = as_bounds(bounds, vals) if method in ("gvf-harmonic", "gvf") else None
     n = len(surface.V)
-    report = {"method": method, "samples": int(idx.size), "vertices": n, "seconds": seconds}
+    report = {"method": method, "curve_values": curve_values if method == "gvf-harmonic" else None,
+              "samples": int(idx.size), "vertices": n, "seconds": seconds}
 
     # Steps 2-3 first when they run: the hop length of every curve bounds the Lipschitz
     # constant of Step 1 from below, which saves Step 1 a shortest-path pass

@@ -1,0 +1,51 @@
+"""solver='direct' factorises with SuperLU, or with Pardiso when pypardiso is installed: the same solutions."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from manifill.linalg.backends import DIRECT_ENV, DirectSolver, direct_factoriser
+from manifill.mesh.laplacian import laplacian
+from manifill.mesh.shapes import icosphere
+
+pypardiso = pytest.importorskip("pypardiso", reason="the [fast] extra (pypardiso) is not installed")
+
+
+def reduced_laplacian():
+    V, F = icosphere(3)
+    L = sp.csr_matrix(laplacian(V, F))
+    free = np.arange(5, len(V))
+    return L[free][:, free]
+
+
+def kkt():
+    """A symmetric indefinite saddle-point system, as the equality rows of the solve core make."""
+    A = reduced_laplacian()
+    rng = np.random.default_rng(0)
+    C = sp.random(4, A.shape[0], density=0.02, random_state=1, format="csr") + sp.eye(4, A.shape[0], k=3)
+    return sp.bmat([[A, C.T], [C, None]], format="csr"), rng.standard_normal((A.shape[0] + 4, 3))
+
+
+@pytest.mark.parametrize("system", ["spd", "kkt"])
+def test_pardiso_and_superlu_give_the_same_solutions(system, monkeypatch):
+    if system == "spd":
+        A = reduced_laplacian()
+        R = np.random.default_rng(2).standard_normal((A.shape[0], 2))
+    else:
+        A, R = kkt()
+    out = {}
+    for name in ("superlu", "pardiso"):
+        monkeypatch.setenv(DIRECT_ENV, name)
+        d = DirectSolver(A)
+        assert d.factoriser == name
+        X, _ = d.solve(R)
+        assert np.linalg.norm(A @ X - R) <= 1e-10 * np.linalg.norm(R)  # a solution, not just an agreement
+        out[name] = X
+    np.testing.assert_allclose(out["pardiso"], out["superlu"], rtol=0, atol=1e-9 * np.abs(out["superlu"]).max())
+
+
+def test_the_environment_forces_superlu(monkeypatch):
+    monkeypatch.setenv(DIRECT_ENV, "superlu")
+    assert direct_factoriser() == "superlu"
+    monkeypatch.delenv(DIRECT_ENV)
+    assert direct_factoriser() == "pardiso"

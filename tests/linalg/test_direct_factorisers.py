@@ -49,3 +49,11 @@ def test_the_environment_forces_superlu(monkeypatch):
     assert direct_factoriser() == "superlu"
     monkeypatch.delenv(DIRECT_ENV)
     assert direct_factoriser() == "pardiso"
+
+
+def test_a_singular_matrix_is_not_solved_by_perturbed_pivots(monkeypatch):
+    """Pardiso perturbs zero pivots and returns a number; manifill hands such a matrix to SuperLU, which refuses it."""
+    monkeypatch.setenv(DIRECT_ENV, "pardiso")
+    A = sp.csr_matrix(np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 2.0]]))
+    with pytest.raises(RuntimeError, match="singular"):
+        DirectSolver(A)

@@ -132,7 +132,13 @@ class DirectSolver:
             self._A.sort_indices()
             self._pardiso = pypardiso.PyPardisoSolver()  # real non-symmetric: also the KKT systems
             self._pardiso.factorize(self._A)
-            self._lu = _PardisoFactor(self._pardiso, self._A)
+            perturbed = int(self._pardiso.get_iparms().get(14, 0))  # iparm(14): pivots Pardiso had to perturb
+            if perturbed:  # (near) singular: SuperLU decides, and says "exactly singular" where it is
+                self.factoriser = f"superlu (Pardiso perturbed {perturbed} pivots)"
+                self._pardiso.free_memory(everything=True)
+                self._lu = splu(sp.csc_matrix(A))
+            else:
+                self._lu = _PardisoFactor(self._pardiso, self._A)
         else:
             self._lu = splu(sp.csc_matrix(A))
 

@@ -57,3 +57,29 @@ def test_a_singular_matrix_is_not_solved_by_perturbed_pivots(monkeypatch):
     A = sp.csr_matrix(np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 2.0]]))
     with pytest.raises(RuntimeError, match="singular"):
         DirectSolver(A)
+
+
+def _resident_bytes():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * 4096
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/proc/self/statm"), reason="needs /proc (Linux)")
+def test_pardiso_factors_are_freed_with_their_solver(monkeypatch):
+    """Pardiso's factors live in MKL's memory: an active set making one factorisation per face must not keep them.
+
+    Without the release, each factorisation of this system stayed resident (about 0.13 GB each at 41k vertices).
+    """
+    from manifill.linalg.energies import polyharmonic_energy
+    from manifill.mesh.laplacian import mass_matrix
+
+    monkeypatch.setenv(DIRECT_ENV, "pardiso")
+    V, F = icosphere(5)
+    Q = polyharmonic_energy(sp.csr_matrix(laplacian(V, F)), mass_matrix(V, F, kind="voronoi"), 2).tocsr()[5:, 5:]
+    first = _resident_bytes()
+    DirectSolver(Q).solve(np.ones(Q.shape[0]))
+    one = max(_resident_bytes() - first, 1)
+    start = _resident_bytes()
+    for _ in range(6):
+        DirectSolver(Q).solve(np.ones(Q.shape[0]))
+    assert _resident_bytes() - start < 2 * one  # six more factorisations cost no more than about one

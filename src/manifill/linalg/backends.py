@@ -83,10 +83,21 @@ def direct_factoriser():
 
 
 class _PardisoFactor:
-    """``solve(B)`` with a Pardiso factorisation kept by its solver object (the SuperLU interface)."""
+    """``solve(B)`` with a Pardiso factorisation kept by its solver object (the SuperLU interface).
+
+    Pardiso keeps its factors in MKL's memory, outside Python's: they are freed when this
+    object goes (an active set builds one factorisation per face; without this, every one
+    of them stayed: 21 GB after 30 faces at 41k vertices).
+    """
 
     def __init__(self, solver, A):
         self._solver, self._A = solver, A
+
+    def __del__(self):
+        try:
+            self._solver.free_memory(everything=True)
+        except Exception:  # interpreter shutdown: nothing left to free into
+            pass
 
     def solve(self, B):
         X = self._solver.solve(self._A, np.ascontiguousarray(B, dtype=np.float64))

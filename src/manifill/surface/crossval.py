@@ -17,7 +17,7 @@ candidate; a candidate's own options override them. Samples may be vertex indice
 positions (``(k, 3)``, located on the surface as :func:`manifill.reconstruct` locates them).
 
 ``reconstruct(..., method="auto")`` cross-validates :data:`AUTO_CANDIDATES` (the default
-candidates less the bounded biharmonic and the triharmonic, which cost most) with
+candidates less the bounded biharmonic, which costs most) with
 :data:`AUTO_FOLDS` folds (leave-one-out below that many samples; the split seeded by
 ``seed``), then reconstructs with the lowest-error one on all samples: the result equals
 ``reconstruct(..., method=<chosen>, <its options>)``, and ``report['auto']`` holds the
@@ -45,10 +45,9 @@ __all__ = ["CANDIDATES", "AUTO_CANDIDATES", "AUTO_FOLDS", "MIN_SAMPLES", "CrossV
 #: The default candidates: ``(method, options)``.
 CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"}), ("harmonic", {}),
               ("biharmonic", {}), ("biharmonic", {"bounds": "samples"}), ("triharmonic", {}), ("rbf", {}))
-#: The candidates of ``method="auto"``: the default ones less the slow ones (the bounded biharmonic's active
-#: set and the triharmonic factorisation cost 5-20x the others per fold at 41k vertices; measured in
-#: docs/NOTES.md), so that ``auto`` costs a few times one fit.
-AUTO_CANDIDATES = tuple(c for c in CANDIDATES if c not in (("biharmonic", {"bounds": "samples"}), ("triharmonic", {})))
+#: The candidates of ``method="auto"``: the default ones less the bounded biharmonic, whose active set costs
+#: 5-20x the others per fold at 41k vertices (docs/NOTES.md), so that ``auto`` costs a few times one fit.
+AUTO_CANDIDATES = tuple(c for c in CANDIDATES if c != ("biharmonic", {"bounds": "samples"}))
 #: Folds of ``method="auto"``.
 AUTO_FOLDS = 5
 #: Fewest samples cross-validation accepts (every fit then has at least two).

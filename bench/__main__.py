@@ -19,7 +19,7 @@ from pathlib import Path
 
 from . import accuracy, speed
 
-PACKAGES = ("numpy", "scipy", "pyamg", "libigl", "manifill", "meshio", "pyvista", "matplotlib", "potpourri3d",
+PACKAGES = ("numpy", "scipy", "pyamg", "libigl", "pypardiso", "manifill", "meshio", "pyvista", "matplotlib", "potpourri3d",
             "mne")
 
 
@@ -41,6 +41,10 @@ def intro(args, argv, started, elapsed):
              "root. Every seed is fixed, so the accuracy figures repeat exactly; times depend on the machine.", "",
              f"- Command: `{cmd}`" + (" (smoke run: tiny meshes, not for conclusions)" if args.smoke else ""),
              f"- Date: {started:%Y-%m-%d %H:%M} (local), total run time {elapsed:.0f} s",
+             *([f"- Results merged from the runs saved in {', '.join(Path(p).name for p in args.load.split(','))} "
+                f"(`python -m bench accuracy --cases ... --save FILE` and `python -m bench speed --save FILE`, run "
+                f"side by side on this machine just before; their own run times are in the tables)"]
+               if args.load else []),
              f"- Machine: {platform.platform()}, {platform.machine()}, {os.cpu_count()} cores "
              f"(shared and noisy: compare the same-run ratios, not the absolute times)",
              "- Versions: " + ", ".join(f"{k} {val}" for k, val in v.items()), "",

@@ -28,18 +28,18 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
 from .amg import Multigrid, canonical_csr, independent_blocks
+from .factorise import DIRECT_ENV, direct_factoriser, factorise
 from .pcg import nrm2
 from .threads import workers
 from ..tolerances import TOL
 from ..validate import check_option
 
 __all__ = ["SOLVERS", "ITERATIONS", "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver",
-           "direct_factoriser"]
+           "direct_factoriser", "DIRECT_ENV"]
 
 SOLVERS = ("auto", "direct", "amg", "iterate")
 ITERATIONS = ("gauss-seidel", "jacobi")
@@ -51,57 +51,6 @@ AUTO_DIRECT_MAX = 20_000
 def _columns(R):
     R = np.asarray(R, dtype=np.float64)
     return R[:, None] if R.ndim == 1 else R
-
-
-#: Environment variable naming the factorisation of ``solver='direct'``: ``superlu`` or ``pardiso``
-#: (default: ``pardiso`` when the optional ``pypardiso`` is installed, the ``[fast]`` extra).
-DIRECT_ENV = "MANIFILL_DIRECT"
-
-
-def direct_factoriser():
-    """The sparse factorisation ``solver='direct'`` uses: ``'pardiso'`` if pypardiso imports, else ``'superlu'``.
-
-    Measured (docs/NOTES.md, 2026-12-01): Intel MKL's Pardiso through pypardiso factorises the
-    reduced bilaplacian of a 41k-vertex sphere about 4x faster than SuperLU, with the same values to
-    1e-11. ``MANIFILL_DIRECT=superlu`` forces SciPy's SuperLU.
-
-    Examples
-    --------
-    >>> direct_factoriser() in ("pardiso", "superlu")
-    True
-    """
-    import os
-
-    want = os.environ.get(DIRECT_ENV, "").strip().lower()
-    if want == "superlu":
-        return "superlu"
-    try:
-        import pypardiso  # noqa: F401
-    except ImportError:
-        return "superlu"
-    return "pardiso"
-
-
-class _PardisoFactor:
-    """``solve(B)`` with a Pardiso factorisation kept by its solver object (the SuperLU interface).
-
-    Pardiso keeps its factors in MKL's memory, outside Python's: they are freed when this
-    object goes (an active set builds one factorisation per face; without this, every one
-    of them stayed: 21 GB after 30 faces at 41k vertices).
-    """
-
-    def __init__(self, solver, A):
-        self._solver, self._A = solver, A
-
-    def __del__(self):
-        try:
-            self._solver.free_memory(everything=True)
-        except Exception:  # interpreter shutdown: nothing left to free into
-            pass
-
-    def solve(self, B):
-        X = self._solver.solve(self._A, np.ascontiguousarray(B, dtype=np.float64))
-        return np.asarray(X, dtype=np.float64).reshape(np.shape(B))
 
 
 class DirectSolver:
@@ -133,25 +82,7 @@ class DirectSolver:
             check_fits(lu_memory(n, A.nnz, dim=1 if A.nnz <= 3.5 * n else 2),
                        f"the sparse LU factorisation of {n:,} unknowns (solver='direct')",
                        "use solver='amg' (CLI --solver amg, or --fill-solver amg for a volume fill)")
-        self.factoriser = direct_factoriser() if n else "superlu"
-        if not n:
-            self._lu = None
-        elif self.factoriser == "pardiso":
-            import pypardiso
-
-            self._A = sp.csr_matrix(A)
-            self._A.sort_indices()
-            self._pardiso = pypardiso.PyPardisoSolver()  # real non-symmetric: also the KKT systems
-            self._pardiso.factorize(self._A)
-            perturbed = int(self._pardiso.get_iparms().get(14, 0))  # iparm(14): pivots Pardiso had to perturb
-            if perturbed:  # (near) singular: SuperLU decides, and says "exactly singular" where it is
-                self.factoriser = f"superlu (Pardiso perturbed {perturbed} pivots)"
-                self._pardiso.free_memory(everything=True)
-                self._lu = splu(sp.csc_matrix(A))
-            else:
-                self._lu = _PardisoFactor(self._pardiso, self._A)
-        else:
-            self._lu = splu(sp.csc_matrix(A))
+        self.factoriser, self._lu = factorise(A) if n else ("superlu", None)
 
     def solve(self, R, x0=None):
         """Solve ``A X = R``.

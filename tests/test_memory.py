@@ -438,7 +438,7 @@ def test_subdivision_runs_with_plenty(plenty_memory):
 
 
 def test_direct_solver_refused_before_factorising(monkeypatch, little_memory):
-    monkeypatch.setattr(manifill.linalg.backends, "splu", lambda *a, **k: pytest.fail("factorised"))
+    monkeypatch.setattr(manifill.linalg.backends, "factorise", lambda *a, **k: pytest.fail("factorised"))
     V, F = icosphere(3)
     A = (laplacian(V, F) + sp.eye_array(len(V))).tocsr()
     msg = refused_quietly(make_linear_solver, A, "direct")

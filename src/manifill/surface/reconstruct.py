@@ -426,10 +426,11 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
             t = time.perf_counter()
             b, bc = values_on_curves(surface, part, idx, vals, method=curve_values, checks=checks)
             if lohi is not None:  # curve values projected onto the bounds (the samples lie within them)
-                bc2 = np.clip(bc if bc.ndim == 2 else bc[:, None], lohi[0], lohi[1])
+                cols = bc if bc.ndim == 2 else bc[:, None]
+                clipped = np.clip(cols, lohi[0], lohi[1])
                 report["bounds"] = {"lo": lohi[0].tolist(), "hi": lohi[1].tolist(),
-                                    "clipped_curve_values": int((bc2 != (bc if bc.ndim == 2 else bc[:, None])).sum())}
-                bc = bc2 if bc.ndim == 2 else bc2[:, 0]
+                                    "clipped_curve_values": int((clipped != cols).sum())}
+                bc = clipped.reshape(bc.shape)
             seconds["curve_values"] = time.perf_counter() - t
         # Steps 5-6: harmonic fill of every patch (bounded: the minimiser within the bounds, an active set that
         # stops at once where the maximum principle holds, i.e. without negative cotangent weights)

@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import SampleError
 
-__all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES", "Result", "field_names",
+__all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "TRUSTED", "RESERVED_NAMES", "Result", "field_names",
            "sample_mask"]
 
 #: 1 where a vertex (or voxel) holds a sample
@@ -35,7 +35,9 @@ CURVE_MASK = "curve_mask"
 PATCH_LABEL = "patch_label"
 #: 1 on the boundary of a solid (tet vertices on its surface; voxels of D, filled from the surface)
 BOUNDARY_MASK = "boundary_mask"
-RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK)
+#: 1 where the standard deviation is within the ``trust`` threshold (with ``trust=``)
+TRUSTED = "trusted"
+RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK, TRUSTED)
 
 
 def field_names(names, p):

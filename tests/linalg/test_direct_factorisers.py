@@ -11,6 +11,26 @@ from manifill.mesh.shapes import icosphere
 pypardiso = pytest.importorskip("pypardiso", reason="the [fast] extra (pypardiso) is not installed")
 
 
+@pytest.fixture(autouse=True)
+def any_size(monkeypatch):
+    """These systems are small: let Pardiso take them all (its size floor is tested below)."""
+    import manifill.linalg.factorise as fz
+
+    monkeypatch.setattr(fz, "PARDISO_MIN", 0)
+
+
+def test_small_systems_go_to_superlu(monkeypatch):
+    import manifill.linalg.factorise as fz
+
+    monkeypatch.setenv(DIRECT_ENV, "pardiso")
+    monkeypatch.setattr(fz, "PARDISO_MIN", 1000)
+    A = reduced_laplacian()
+    assert A.shape[0] < 1000
+    assert DirectSolver(A).factoriser == "superlu"
+    monkeypatch.setattr(fz, "PARDISO_MIN", 100)
+    assert DirectSolver(A).factoriser == "pardiso"
+
+
 def reduced_laplacian():
     V, F = icosphere(3)
     L = sp.csr_matrix(laplacian(V, F))

@@ -17,7 +17,7 @@ from .partition import PARTITIONS
 
 __all__ = ["METHODS", "STEPS", "DEFAULT", "resolve_default", "check_options"]
 
-METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf", "rbf", "auto")
+METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf", "rbf", "gp", "auto")
 
 #: The steps each method runs, in order, under the names it passes to ``progress``
 #: (:func:`reconstruct` runs ``graph`` before them; a progress bar's total is their count).
@@ -27,6 +27,7 @@ STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill")
          "triharmonic": ("check", "triharmonic fill"),
          "gvf": ("check", "gvf"),
          "rbf": ("check", "rbf"),
+         "gp": ("check", "gp"),
          "auto": ("cross-validate", "fill")}
 
 #: What ``method=None`` (the default) runs, chosen by measurement (README, "Which method when"): among the

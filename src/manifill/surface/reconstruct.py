@@ -21,13 +21,11 @@ the whole surface (:func:`manifill.surface.fill.gvf_fill`). The result is a
 """
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import OptionError, SampleError
 from ..progress import tick
-from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, Result
 from ..validate import as_mesh, as_samples
 from .curve_values import values_on_curves
 from .energy_fill import ENERGY_METHODS, as_bounds, energy_fill
@@ -37,118 +35,18 @@ from .partition import partition as _partition
 from .points import is_positions, point_samples, points_report
 from .samples import weights_by_vertex
 from .methods import DEFAULT, METHODS, STEPS, check_options, resolve_default
+from .gp import check_uncertainty, energy_uncertainty, reconstruct_gp, trust_mask
+from .reconstruction import Reconstruction
 from .surface import Surface
 
 __all__ = ["METHODS", "STEPS", "INITS", "DEFAULT", "Reconstruction", "reconstruct", "reconstruct_surface",
            "check_options", "resolve_default"]
 
-@dataclass
-class Reconstruction(Result):
-    """The result of :func:`reconstruct` and :func:`reconstruct_surface` (a :class:`manifill.results.Result`).
-
-    Attributes
-    ----------
-    values : (n,) or (n, p) numpy array
-        The field at every vertex, equal to the samples at the samples.
-    curves : list of (l,) int64 numpy arrays
-        The partition curves (``gvf-harmonic``; empty otherwise).
-    components : (n,) int64 numpy array
-        Patch of every vertex, ``-1`` on the curves (all ``0`` for methods
-        without a partition).
-    on_curve : (n,) bool numpy array
-        The vertices whose values were fixed before the harmonic fill.
-    levels : list of (m,) numpy arrays
-        The value levels of each field (Step 1).
-    report : dict
-        Diagnostics: the gradual variation check per field (Lipschitz
-        constant, level step, violations), the partition's report, the
-        harmonic solver's report, and ``seconds`` per step.
-    V : (n, 3) numpy array
-        The surface's vertices (as validated).
-    F : (m, 3) int64 numpy array or None
-        Its triangles (None on a digital surface, which has none).
-    idx : (k,) int64 numpy array
-        The sample vertices (sorted, unique); for samples given as positions,
-        their nearest vertices.
-    points : SurfacePoints or None
-        For samples given as positions: each located at its closest surface point
-        (:class:`manifill.surface.locate.SurfacePoints`: face, barycentric
-        coordinates, distance, nearest vertex); ``None`` for vertex indices.
-    """
-
-    values: np.ndarray
-    curves: list
-    components: np.ndarray
-    on_curve: np.ndarray
-    levels: list
-    report: dict = field(default_factory=dict)
-    V: np.ndarray = None
-    F: np.ndarray = None
-    idx: np.ndarray = None
-    points: object = None
-
-    @property
-    def sample_mask(self):
-        """(n,) bool numpy array: True at the sample vertices."""
-        sample = np.zeros(len(self.values), dtype=bool)
-        sample[self.idx] = True
-        return sample
-
-    def masks(self):
-        """``sample_mask``, ``curve_mask`` (:attr:`on_curve`) and ``patch_label`` (:attr:`components`).
-
-        Examples
-        --------
-        >>> from manifill.mesh.shapes import icosphere
-        >>> V, F = icosphere(2)
-        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
-        >>> list(r.masks()), int(r.masks()["sample_mask"].sum())
-        (['sample_mask', 'curve_mask', 'patch_label'], 5)
-        """
-        return {SAMPLE_MASK: self.sample_mask, CURVE_MASK: self.on_curve, PATCH_LABEL: self.components}
-
-    def point_data(self, names=None):
-        """The fields and manifill's masks, named as in every output file.
-
-        Parameters
-        ----------
-        names : list of str, optional
-            One name per field (``value``, ``value2``, ... by default).
-
-        Returns
-        -------
-        dict of str to (n,) numpy array
-            The fields, ``sample_mask``, ``curve_mask`` and ``patch_label``.
-        """
-        return super().point_data(names)
-
-    def to_pyvista(self, names=None):
-        """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).
-
-        Examples
-        --------
-        >>> from manifill.mesh.shapes import icosphere
-        >>> V, F = icosphere(2)
-        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
-        >>> sorted(r.to_pyvista(["t"]).point_data.keys())
-        ['curve_mask', 'patch_label', 'sample_mask', 't']
-        """
-        from ..mesh.objects import to_pyvista
-
-        return to_pyvista(self.V, self.F, self.point_data(names))
-
-    def to_meshio(self, names=None):
-        """The surface with every field and mask as a ``meshio.Mesh``."""
-        from ..mesh.objects import to_meshio
-
-        return to_meshio(self.V, self.F, self.point_data(names))
-
-
 def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="cotan",
                 distance="length", levels=None, curve_values=None, solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
                 tol=None, maxiter=None, bounds=None, smoothing=None, sample_weights=None, max_distance=None,
-                progress=None):
+                gp=None, uncertainty=None, trust=None, untrusted="mask", progress=None):
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
 
     Parameters
@@ -233,6 +131,20 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
     max_distance : float, optional
         For sample positions: the largest accepted distance to the surface (the
         default as for :func:`manifill.surface.samples.snap_to_vertices`).
+    gp : None, dict or GPOptions, optional
+        ``method='gp'``'s options (:class:`manifill.GPOptions`: alpha, range, sigma,
+        noise, mean, share, variance, samples, seed, fit_samples); ``report['gp']``
+        gives the hyperparameters, the likelihood and how the variance was computed.
+    uncertainty : None or bool, optional
+        Compute :attr:`Reconstruction.std`. None: True for ``method='gp'`` (or with
+        ``trust``). For harmonic, biharmonic and triharmonic: the std of the intrinsic
+        Gaussian field whose conditional mean the method's result is
+        (:mod:`manifill.surface.gp`); refused for the other methods and with ``bounds``.
+    trust : float, optional
+        Mark as not trusted every vertex where a field's std exceeds ``trust`` times
+        the standard deviation of its samples (:attr:`Reconstruction.trusted`).
+    untrusted : {'mask', 'nan'}, optional
+        What ``trust`` does there: only the mask, or the value NaN too.
     progress : callable, optional
         Called with the name of each step as it starts (e.g.
         :class:`manifill.progress.StepBar`).
@@ -260,12 +172,16 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
     default = method is None
     method, curve_values, bounds = resolve_default(method, curve_values, bounds)
     check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
+    uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if default else bounds)
+    if gp is not None and method != "gp":
+        raise OptionError(f"gp= holds method='gp''s options, not method={method!r}'s; pass method='gp' or leave "
+                          f"gp out")
     V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
     n = len(V)
     points, raw, vals_in = None, idx, vals
     if is_positions(idx):
         points = point_samples(V, F, idx, vals, duplicates=duplicates, max_distance=max_distance,
-                               nearest_only=method not in ENERGY_METHODS and method not in ("auto", "rbf"))
+                               nearest_only=method not in ENERGY_METHODS and method not in ("auto", "rbf", "gp"))
         idx, vals, squeeze = points.nearest, points.nearest_vals, points.squeeze
     elif max_distance is not None:
         raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
@@ -286,7 +202,7 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
                             levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
                             iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds,
                             smoothing=smoothing, sample_weights=sample_weights, progress=progress, seconds=seconds,
-                            points=points)
+                            points=points, gp=gp, uncertainty=uncertainty, trust=trust, untrusted=untrusted)
     r.report["default"] = default
     smoothed = r.report.get("harmonic", {}).get("smoothing")
     if smoothed is not None:  # residuals in the caller's rows and shape
@@ -294,6 +210,7 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
         smoothed["residuals"] = (at - given)[:, 0] if squeeze else at - given
     if squeeze:
         r.values = r.values[:, 0]
+        r.std = None if r.std is None else r.std[:, 0]
     seconds["total"] = time.perf_counter() - t0
     return r
 
@@ -301,7 +218,8 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
 def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay", weights="cotan",
                         levels=None, curve_values=None, solver="auto", on_empty="error",
                         iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None,
-                        smoothing=None, sample_weights=None, progress=None, seconds=None, points=None):
+                        smoothing=None, sample_weights=None, progress=None, seconds=None, points=None, gp=None,
+                        uncertainty=None, trust=None, untrusted="mask"):
     """Steps 1-6 on a Surface and validated samples.
 
     Parameters
@@ -313,6 +231,8 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
     vals : (k, p) float64 numpy array
         Sample values, one column per field (always two-dimensional).
     method, partition, weights, levels, curve_values, solver, on_empty, iteration, init, seed, tol, maxiter, progress
+        As for :func:`reconstruct`.
+    gp, uncertainty, trust, untrusted
         As for :func:`reconstruct`.
     points : PointSamples, optional
         Samples given as positions (:func:`manifill.surface.points.point_samples`);
@@ -348,8 +268,10 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
     t0 = time.perf_counter()
     seconds = {} if seconds is None else seconds
     before = sum(seconds.values())
+    default = method is None
     method, curve_values, bounds = resolve_default(method, curve_values, bounds)
     check_options(method, partition, weights, "length", curve_values, solver, on_empty, iteration, init)
+    uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if default else bounds)
     if method == "rbf":  # the thin-plate spline in space (manifill.surface.rbf)
         from .rbf import reconstruct_rbf
 
@@ -363,6 +285,9 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
                        bounds=bounds, smoothing=smoothing, sample_weights=sample_weights)
         return reconstruct_auto(surface, idx, vals, options=options, progress=progress, seconds=seconds,
                                 points=points)
+    if method == "gp" and (bounds is not None or smoothing is not None or sample_weights is not None):
+        raise OptionError("method='gp' takes its noise as gp={'noise': ...} and has no bounds; leave bounds, "
+                          "smoothing and sample_weights out")
     if (smoothing is not None or sample_weights is not None) and method not in ENERGY_METHODS:
         raise OptionError(f"smoothing and sample_weights apply to the energy methods "
                           f"({', '.join(ENERGY_METHODS)}) and rbf, not to method={method!r}; pick one of those")
@@ -397,11 +322,18 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
     curves, components = [], np.zeros(n, dtype=np.int64)
     fixed = np.zeros(n, dtype=bool)
     fixed[idx] = True
+    std = None
     if method == "gvf":
         tick(progress, "gvf")
         t = time.perf_counter()
         values = gvf_fill(surface, idx, vals, checks, on_empty=on_empty)
         seconds["gvf"] = time.perf_counter() - t
+    elif method == "gp":  # the Matérn field's posterior (manifill.surface.gp)
+        tick(progress, "gp")
+        t = time.perf_counter()
+        values, std, report["gp"] = reconstruct_gp(surface, idx, vals, gp=gp, weights=weights, solver=solver,
+                                                   points=points)
+        seconds["gp"] = time.perf_counter() - t
     elif method in ENERGY_METHODS and (method != "harmonic" or bounds is not None or smoothing is not None
                                        or (points is not None and points.inside)):
         # the samples alone as constraints, on the k-harmonic energy (bounded or smoothed if asked)
@@ -442,6 +374,17 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
             **({} if lohi is None or method != "gvf-harmonic" else {"lo": lohi[0], "hi": lohi[1]}))
         values = values if values.ndim == 2 else values[:, None]
         seconds["harmonic"] = time.perf_counter() - t
+    if uncertainty and method != "gp":  # the energy method read as an intrinsic Gaussian field
+        tick(progress, "uncertainty")
+        t = time.perf_counter()
+        std, report["uncertainty"] = energy_uncertainty(
+            surface, ENERGY_METHODS[method], weights, idx, vals, points, values, report.get("harmonic", {}),
+            sample_weights=sample_weights, solver="direct" if solver == "iterate" else solver)
+        seconds["uncertainty"] = time.perf_counter() - t
+    trusted = None
+    if trust is not None:
+        values, trusted, report["trust"] = _trusted(values, std, vals if points is None else points.values, trust,
+                                                     untrusted)
     rng = vals if points is None else points.values
     lo, hi = rng.min(axis=0), rng.max(axis=0)
     with np.errstate(invalid="ignore"):
@@ -452,4 +395,9 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
     seconds["total"] = before + time.perf_counter() - t0
     return Reconstruction(values=values, curves=curves, components=components, on_curve=fixed,
                           levels=[c.levels for c in checks], report=report, V=surface.V, F=surface.F, idx=idx,
-                          points=None if points is None else points.located)
+                          points=None if points is None else points.located, std=std, trusted=trusted)
+
+
+def _trusted(values, std, sample_vals, trust, untrusted):
+    values, ok, threshold = trust_mask(values, std, sample_vals, trust, untrusted)
+    return values, ok, {"threshold": threshold, "untrusted": int((~ok).sum()), "marked": untrusted}

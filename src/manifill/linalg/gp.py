@@ -1,0 +1,339 @@
+"""Gaussian-process reconstruction on any domain with a stiffness and a mass: options, fit, mean and std.
+
+:func:`gp_condition` takes the Matérn shape of a domain (:class:`manifill.linalg.spde.MaternShape`),
+the observations (vertex samples and barycentric rows) and :class:`GPOptions`, and returns the
+posterior mean and standard deviation at every node with a report:
+
+1. hyperparameters: the range, the marginal standard deviation and the noise, each given or
+   fitted by maximum restricted likelihood (:mod:`manifill.linalg.gpfit`, on at most
+   ``fit_samples`` of the samples, drawn at random with ``seed``);
+2. the mean: a constant ``beta`` per field by generalised least squares (or known), plus the
+   conditional mean of the rest (:class:`manifill.linalg.gaussian.Conditional`);
+3. the variance: the conditional variance, plus the variance of ``beta``'s estimate
+   (universal kriging: ``s^2 (1 - x_1)^2 / (1' S^-1 1)``, ``x_1`` the predictor of unit data).
+
+:func:`intrinsic_std` gives the same reading to an energy method (harmonic: ``Q = L``, the
+Gaussian free field; biharmonic: ``L M^-1 L``), whose mean is the method's own result.
+"""
+
+import math
+import time
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError, SampleError
+from .gaussian import VARIANCES, Conditional
+from .gpfit import Likelihood, fit_range, restricted_loglik
+from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
+
+__all__ = ["GPOptions", "as_gp_options", "gp_condition", "intrinsic_std"]
+
+
+@dataclass(frozen=True)
+class GPOptions:
+    """Options of ``method='gp'`` (pass a ``GPOptions`` or a dict of these names as ``gp=``).
+
+    Attributes
+    ----------
+    alpha : {1, 2}
+        SPDE order: 2 (default) is Matérn ``nu = 1`` on surfaces (``nu = 1/2``, the
+        exponential covariance, in solids); 1 is the Gaussian free field with a range.
+    range : 'auto' or float > 0
+        Distance at which the correlation falls to about 0.13 (``sqrt(8 nu) / kappa``), in the
+        units of the mesh; ``'auto'``: fitted.
+    sigma : 'auto' or float > 0
+        Prior marginal standard deviation (``alpha = 2`` only); ``'auto'``: fitted.
+    noise : 0, float >= 0 or 'auto'
+        Standard deviation of the measurement noise, in the units of the values: 0 (default)
+        interpolates the samples; ``'auto'``: fitted.
+    mean : 'constant' or float
+        A constant mean per field, estimated (default) or known.
+    share : bool
+        True (default): the fields share the range and the noise-to-signal ratio (one
+        precision, one variance computation, scaled per field); False: each field its own.
+    variance : {'auto', 'exact', 'sampled'}
+        ``exact``: dense inverse (up to 20,000 unknowns); ``sampled``: a Monte Carlo estimate
+        with its standard error in the report; ``auto``: exact up to 5,000 unknowns.
+    samples : int
+        Conditional samples of ``variance='sampled'`` (error about ``1 / sqrt(samples)``).
+    seed : int
+        Seed of the sampled variance and of the fit's subset.
+    fit_samples : int
+        The likelihood is evaluated on at most this many samples (a random subset).
+    """
+
+    alpha: int = 2
+    range: object = "auto"
+    sigma: object = "auto"
+    noise: object = 0.0
+    mean: object = "constant"
+    share: bool = True
+    variance: str = "auto"
+    samples: int = 100
+    seed: int = 0
+    fit_samples: int = 400
+
+
+def _positive(name, v, zero=False):
+    if isinstance(v, str):
+        if v != "auto":
+            raise OptionError(f"gp {name}={v!r} is not 'auto' or a number; pass one of those")
+        return v
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        x = float("nan")
+    if not (math.isfinite(x) and (x > 0 or (zero and x == 0))):
+        raise OptionError(f"gp {name}={v!r} is not a finite number {'>=' if zero else '>'} 0 or 'auto'; "
+                          f"pass one of those")
+    return x
+
+
+def as_gp_options(gp):
+    """``gp`` (None, a dict or :class:`GPOptions`) checked, as a :class:`GPOptions`.
+
+    Examples
+    --------
+    >>> as_gp_options({"range": 0.5}).range
+    0.5
+    >>> as_gp_options({"ragne": 0.5})
+    Traceback (most recent call last):
+    ...
+    manifill.errors.OptionError: gp option 'ragne' is not one of alpha, range, sigma, noise, mean, share, \
+variance, samples, seed, fit_samples; pass those names
+    """
+    if gp is None:
+        o = GPOptions()
+    elif isinstance(gp, GPOptions):
+        o = gp
+    elif isinstance(gp, dict):
+        names = [f.name for f in fields(GPOptions)]
+        for key in gp:
+            if key not in names:
+                raise OptionError(f"gp option {key!r} is not one of {', '.join(names)}; pass those names")
+        o = GPOptions(**gp)
+    else:
+        raise OptionError(f"gp= must be a dict or a manifill.GPOptions, not {type(gp).__name__}; pass one of those")
+    if o.alpha not in ALPHAS:
+        raise OptionError(f"gp alpha={o.alpha!r} is not one of {ALPHAS}; pass alpha=1 or alpha=2")
+    if o.variance not in VARIANCES:
+        raise OptionError(f"gp variance={o.variance!r} is not one of {', '.join(VARIANCES)}; pass one of those")
+    mean = o.mean
+    if isinstance(mean, str):
+        if mean != "constant":
+            raise OptionError(f"gp mean={mean!r} is not 'constant' or a number; pass one of those")
+    elif not math.isfinite(float(mean)):
+        raise OptionError(f"gp mean={mean!r} is not a finite number; pass 'constant' or a number")
+    for name in ("samples", "fit_samples"):
+        v = getattr(o, name)
+        if not isinstance(v, (int, np.integer)) or v < (2 if name == "samples" else 3):
+            raise OptionError(f"gp {name}={v!r} is not an integer >= {2 if name == 'samples' else 3}; pass one")
+    return replace(o, range=_positive("range", o.range), sigma=_positive("sigma", o.sigma),
+                   noise=_positive("noise", o.noise, zero=True))
+
+
+def _groups(keys):
+    out = {}
+    for j, key in enumerate(keys):
+        out.setdefault(key, []).append(j)
+    return out
+
+
+def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
+    """Posterior mean and standard deviation of the Matérn field at every node.
+
+    Parameters
+    ----------
+    shape : MaternShape
+    idx : (k,) int64 numpy array
+        Sample nodes, sorted and unique.
+    rows : (m, n) scipy sparse matrix or None
+        Barycentric rows of samples inside faces (after the vertex samples in ``Y``).
+    Y : (k + m, p) numpy array
+    opts : GPOptions
+    length, diameter : float
+        A typical edge length and the domain's diameter: the search interval of the range.
+    solver : {'auto', 'direct', 'amg'}, optional
+
+    Returns
+    -------
+    X, std : (n, p) numpy arrays
+    report : dict
+    """
+    t0 = time.perf_counter()
+    alpha, d = opts.alpha, shape.d
+    Y = np.asarray(Y, dtype=np.float64)
+    m, p = Y.shape
+    if m < 3 and "auto" in (opts.range, opts.sigma, opts.noise):
+        raise SampleError(f"fitting the gp's hyperparameters needs at least 3 samples, got {m}; give range, "
+                          f"sigma and noise in gp=")
+    if opts.sigma != "auto" and nu(alpha, d) <= 0:
+        raise OptionError(f"gp sigma= needs a finite prior variance, and alpha={alpha} in dimension {d} has none; "
+                          f"pass alpha=2 or leave sigma='auto'")
+    var_factor = 1.0 if nu(alpha, d) <= 0 else sigma_from_tau(1.0, 1.0, alpha, d) ** 2  # at kappa = 1
+    v = nu(alpha, d)
+
+    def s2_of_sigma(kappa):  # sigma^2 = s^2 * factor(kappa), factor = factor(1) * kappa^(-2 nu)
+        return float(opts.sigma) ** 2 / (var_factor * kappa ** (-2.0 * v))
+
+    fixed_s2 = opts.sigma != "auto"
+    noise2 = None if opts.noise == "auto" else np.full(p, float(opts.noise) ** 2)
+    fit_noise = opts.noise == "auto"
+    need_fit = opts.range == "auto" or fit_noise or (opts.sigma == "auto" and opts.noise not in (0.0,))
+    report = {"alpha": alpha, "nu": v, "dimension": d, "fitted": [], "mean_model": opts.mean}
+    H = None
+    seconds = {}
+    cols_sets = [list(range(p))] if opts.share else [[j] for j in range(p)]
+    kappa = [None] * p
+    s2 = [None] * p
+    n2 = [0.0] * p
+    if need_fit:
+        t = time.perf_counter()
+        from .factorise import factorise
+
+        H = _observations(shape.n, idx, rows)
+        sub = np.arange(m)
+        if m > opts.fit_samples:
+            sub = np.sort(np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False))
+        Hs = H[sub]
+
+        def covariance(kap):
+            return shape.covariance_at(kap, Hs, factorise(shape.K(kap).tocsc())[1])
+
+        bounds = (kappa_from_range(2.0 * diameter, alpha, d),
+                  kappa_from_range(max(2.0 * length, diameter / 200.0), alpha, d))
+        fits = []
+        for cols in cols_sets:
+            given_k = None if opts.range == "auto" else kappa_from_range(opts.range, alpha, d)
+            s2_given = None
+            if fixed_s2:
+                kk = given_k
+                s2_given = None if kk is None else np.full(p, s2_of_sigma(kk))
+            if fixed_s2 and given_k is None:  # the scale follows kappa: fit through the absolute form
+                fit = _fit_sigma_given(covariance, Y[sub], bounds, opts, s2_of_sigma, cols, noise2, fit_noise)
+            else:
+                fit = fit_range(covariance, Y[sub][:, cols], bounds, mean=opts.mean,
+                                s2=None if s2_given is None else s2_given[cols],
+                                noise2=None if noise2 is None else noise2[cols], fit_noise=fit_noise,
+                                kappa=given_k)
+            for i, j in enumerate(cols):
+                kappa[j], s2[j], n2[j] = fit["kappa"], fit["s2"][i], fit["noise2"][i]
+                if not fixed_s2 and n2[j] == 0.0:  # re-profiled below on all the samples (closed form)
+                    s2[j] = None
+            fits.append(fit)
+        report["loglik"] = float(sum(f["loglik"] for f in fits))
+        report["fit"] = {"samples": int(sub.size), "evaluations": int(sum(f["evaluations"] for f in fits)),
+                         "range_bounds": [range_from_kappa(b, alpha, d) for b in bounds[::-1]],
+                         "criterion": "restricted likelihood" if opts.mean == "constant" else "likelihood"}
+        report["fitted"] = [name for name in ("range", "sigma", "noise") if getattr(opts, name) == "auto"]
+        seconds["fit"] = time.perf_counter() - t
+    else:
+        kap = kappa_from_range(opts.range, alpha, d)
+        kappa = [kap] * p
+        s2 = [s2_of_sigma(kap) if fixed_s2 else None] * p
+        n2 = [0.0 if noise2 is None else float(noise2[j]) for j in range(p)]
+        if opts.sigma == "auto":
+            report["fitted"] = ["sigma"]
+
+    X = np.empty((shape.n, p))
+    std = np.empty((shape.n, p))
+    beta = [0.0] * p
+    var_info = None
+    t = time.perf_counter()
+    eta_key = [(kappa[j], None if s2[j] is None or n2[j] == 0 else n2[j] / s2[j]) for j in range(p)]
+    for (kap, eta), cols in _groups(eta_key).items():
+        Q, B = shape.precision(kap), shape.root(kap)
+        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=solver)
+        known = not isinstance(opts.mean, str)
+        data = Y[:, cols] - (float(opts.mean) if known else 0.0)
+        Z = cond.extend(np.column_stack([data, np.ones(m)]))
+        G = cond.gram(np.column_stack([data, np.ones(m)]), Z)
+        a = G[-1, -1]
+        for i, j in enumerate(cols):
+            if known:
+                beta[j] = float(opts.mean)
+                X[:, j] = Z[:, i] + beta[j]
+                q = G[i, i]
+            else:
+                beta[j] = G[i, -1] / a
+                X[:, j] = Z[:, i] + beta[j] * (1.0 - Z[:, -1])
+                q = G[i, i] - G[i, -1] ** 2 / a
+            if s2[j] is None:  # the scale in closed form: REML (or ML with a known mean)
+                s2[j] = max(q / (m - (0 if known else 1)), 1e-300)
+        var, var_info = cond.variance(opts.variance, samples=opts.samples, seed=opts.seed)
+        extra = 0.0 if known else (1.0 - Z[:, -1]) ** 2 / a
+        for j in cols:
+            std[:, j] = np.sqrt(np.maximum(s2[j] * (var + extra), 0.0))
+        report["solver"] = cond.report
+    seconds["posterior"] = time.perf_counter() - t
+    report.update({
+        "kappa": [float(k) for k in kappa],
+        "range": [range_from_kappa(k, alpha, d) for k in kappa],
+        "scale": [math.sqrt(s) for s in s2],
+        "sigma": [None if v <= 0 else math.sqrt(s2[j] * var_factor * kappa[j] ** (-2.0 * v)) for j in range(p)],
+        "noise": [math.sqrt(x) for x in n2],
+        "mean": [float(b) for b in beta],
+        "variance": {k: v2 for k, v2 in var_info.items() if k != "se"},
+        "seconds": {**seconds, "total": time.perf_counter() - t0},
+    })
+    return X, std, report
+
+
+def _fit_sigma_given(covariance, Y, bounds, opts, s2_of_sigma, cols, noise2, fit_noise):
+    """``sigma`` given, ``range`` fitted: the scale moves with ``kappa``, so each ``kappa`` fixes it."""
+    from .gpfit import _bounded
+
+    cache = {}
+
+    def objective(lk):
+        kap = math.exp(lk)
+        lik = Likelihood(covariance(kap), Y[:, cols], opts.mean)
+        s = np.full(len(cols), s2_of_sigma(kap))
+        v, params = restricted_loglik(lik, list(range(len(cols))), s2=s,
+                                      noise2=None if noise2 is None else noise2[cols], fit_noise=fit_noise)
+        cache[lk] = (v, params)
+        return v
+
+    lk, _ = _bounded(objective, *(math.log(b) for b in bounds))
+    if lk not in cache:
+        objective(lk)
+    v, params = cache[lk]
+    return {"kappa": math.exp(lk), "s2": [q[0] for q in params], "noise2": [q[1] for q in params],
+            "neg2loglik": v, "loglik": -0.5 * v, "evaluations": len(cache)}
+
+
+def _observations(n, idx, rows):
+    E = sp.csr_array((np.ones(idx.size), (np.arange(idx.size), idx)), shape=(idx.size, n))
+    return E if rows is None else sp.csr_array(sp.vstack([E, sp.csr_array(rows)]))
+
+
+def intrinsic_std(Q, B, idx, rows, Y, X, *, eta=None, how="auto", samples=100, seed=0, solver="auto",
+                  components=1):
+    """The standard deviation of an energy method read as an intrinsic Gaussian field.
+
+    The field ``x ~ N(0, s^2 Q^+)`` (``Q`` the method's energy, whose null space holds the
+    constants) conditioned on the samples has the method's result ``X`` as its mean; the
+    scale is the restricted likelihood's, ``s^2 = q / (m - c)`` with ``q`` the minimum
+    energy (exact data; with smoothing, the penalised fit's value) and ``c`` the
+    components.
+
+    Returns
+    -------
+    std : (n, p) numpy array
+    report : dict
+        ``scale`` per field, ``variance`` (how, seconds, Monte Carlo error).
+    """
+    Y = np.asarray(Y, dtype=np.float64)
+    m, p = Y.shape
+    if m <= components:
+        raise SampleError(f"a standard deviation needs more samples than components ({components}), got {m}; "
+                          f"add samples")
+    cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=solver)
+    G = cond.gram(Y, X)
+    var, info = cond.variance(how, samples=samples, seed=seed)
+    scale = [math.sqrt(max(G[j, j] / (m - components), 0.0)) for j in range(p)]
+    std = np.sqrt(np.maximum(var, 0.0))[:, None] * np.asarray(scale)[None, :]
+    return std, {"scale": scale, "variance": {k: v for k, v in info.items() if k != "se"},
+                 "model": "intrinsic Gaussian field with the method's energy as precision"}

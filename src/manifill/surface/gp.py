@@ -1,0 +1,190 @@
+"""``method='gp'`` and ``uncertainty=True`` on a surface: a posterior mean with a standard deviation everywhere.
+
+- :func:`reconstruct_gp`: the Matérn field of the SPDE ``(kappa^2 - Delta)^(alpha/2) u = W``
+  on the mesh (the cotangent stiffness and the lumped barycentric mass,
+  :mod:`manifill.linalg.spde`), hyperparameters fitted or given (:class:`manifill.GPOptions`),
+  conditioned on the samples (vertices or points inside faces), with or without noise
+  (:func:`manifill.linalg.gp.gp_condition`).
+- :func:`energy_uncertainty`: the probabilistic reading of the energy methods. Harmonic
+  interpolation is the conditional mean of the Gaussian free field (precision ``s^-2 L``),
+  biharmonic of the field with precision ``s^-2 L M^-1 L``, triharmonic likewise; with
+  ``smoothing`` the samples carry noise of variance ``s^2 lambda / w_i``. The scale ``s``
+  is fitted to the samples (restricted likelihood), so the std is that of a field as rough
+  as the samples say, with *no* range: far from every sample it keeps growing (the
+  field has no mean to return to), unlike ``method='gp'``'s, which levels off at the prior
+  standard deviation. The paper's pipeline has no such reading (its curve values are
+  estimates, not a model), and ``uncertainty=True`` refuses it.
+- :func:`trust_mask`: where the std exceeds ``trust`` times the samples' standard deviation,
+  the value is not to be trusted: marked (``trusted`` is False) and, if asked, set NaN.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError, SampleError
+
+__all__ = ["UNTRUSTED", "reconstruct_gp", "energy_uncertainty", "trust_mask", "check_uncertainty"]
+
+#: What ``untrusted=`` does where the std exceeds the threshold: keep the value (the mask says), or NaN.
+UNTRUSTED = ("mask", "nan")
+
+
+def check_uncertainty(method, uncertainty, trust, untrusted, bounds):
+    """``uncertainty`` resolved for ``method`` (None: True for gp), with the refusals of the other options."""
+    from .energy_fill import ENERGY_METHODS
+
+    if untrusted not in UNTRUSTED:
+        raise OptionError(f"untrusted={untrusted!r} is not one of {', '.join(UNTRUSTED)}; pass one of those")
+    if uncertainty is None:
+        uncertainty = method == "gp" or trust is not None
+    if uncertainty and method != "gp" and method not in ENERGY_METHODS:
+        raise OptionError(f"uncertainty needs a probability model, and method={method!r} has none (the curve "
+                          f"pipeline's curve values are estimates); pass method='gp', 'harmonic' or 'biharmonic'")
+    if uncertainty and bounds is not None:
+        raise OptionError("uncertainty and bounds together are not supported: a bounded fill is not a Gaussian "
+                          "posterior mean; leave bounds out, or uncertainty")
+    if trust is not None:
+        if not uncertainty:
+            raise OptionError("trust= needs the standard deviation; leave uncertainty=False out")
+        try:
+            t = float(trust)
+        except (TypeError, ValueError):
+            t = float("nan")
+        if not (np.isfinite(t) and t > 0):
+            raise OptionError(f"trust={trust!r} is not a number > 0 (a multiple of the samples' standard "
+                              f"deviation); pass one")
+    return bool(uncertainty)
+
+
+def trust_mask(values, std, sample_vals, trust, untrusted="mask"):
+    """``(values, trusted, threshold)``: ``trusted`` where ``std <= trust * sd(samples)`` for every field.
+
+    Examples
+    --------
+    >>> v, ok, th = trust_mask(np.ones((3, 1)), np.array([[0.0], [0.5], [2.0]]), np.array([[0.0], [2.0]]), 1.0, "nan")
+    >>> ok.tolist(), v[:, 0].tolist(), th
+    ([True, True, False], [1.0, 1.0, nan], [1.0])
+    """
+    sd = np.std(sample_vals, axis=0)
+    threshold = float(trust) * sd
+    ok = np.all(std <= threshold[None, :], axis=1)
+    if untrusted == "nan":
+        values = values.copy()
+        values[std > threshold[None, :]] = np.nan
+    return values, ok, threshold.tolist()
+
+
+def _lengths(V, F):
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    length = float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))
+    diameter = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    return length, diameter
+
+
+def _observations(points, idx, vals):
+    """``(vertex idx, barycentric rows or None, data in that order)``."""
+    if points is None:
+        return idx, None, vals
+    if points.inside:
+        return points.idx, points.Aeq, np.vstack([points.vals, points.beq])
+    return points.idx, None, points.vals
+
+
+def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto", points=None, seconds=None):
+    """``(values, std, report)`` of ``method='gp'`` on a triangle Surface.
+
+    Parameters
+    ----------
+    surface : Surface
+    idx, vals
+        Validated samples (the nearest vertices when ``points`` is given).
+    gp : None, dict or GPOptions
+    weights : {'cotan'}
+        The finite-element stiffness; other weights are refused.
+    solver : {'auto', 'direct', 'amg'}
+    points : PointSamples, optional
+
+    Raises
+    ------
+    OptionError
+        A digital surface, weights other than cotan, ``solver='iterate'``, bad ``gp`` options.
+    """
+    from ..linalg.gp import as_gp_options, gp_condition
+    from ..linalg.spde import MaternShape
+    from ..mesh.laplacian import mass_matrix
+    from ..mesh.roots import gradient_root
+
+    opts = as_gp_options(gp)
+    if surface.F is None:
+        raise OptionError("method='gp' needs triangles (a mass matrix), and a digital surface has none; use the "
+                          "voxel mask's own gp (manifill.solid.gp.gp_voxels) or a triangle mesh")
+    if weights != "cotan":
+        raise OptionError(f"method='gp' uses the finite-element (cotangent) stiffness, not weights={weights!r}; "
+                          f"leave weights out")
+    if solver == "iterate":
+        raise OptionError("method='gp' solves with 'direct' or 'amg' (or 'auto'), not solver='iterate'")
+    V, F = surface.V, surface.F
+    shape = MaternShape(surface.laplacian("cotan"), mass_matrix(V, F).diagonal(), gradient_root(V, F),
+                        opts.alpha, 2)
+    length, diameter = _lengths(V, F)
+    oidx, rows, Y = _observations(points, idx, vals)
+    X, std, report = gp_condition(shape, oidx, rows, Y, opts, length=length, diameter=diameter, solver=solver)
+    return X, std, report
+
+
+def energy_uncertainty(surface, k, weights, idx, vals, points, X, fill_report, *, sample_weights=None,
+                       variance="auto", samples=100, seed=0, solver="auto"):
+    """``(std, report)`` of an energy method's result ``X`` read as an intrinsic Gaussian field.
+
+    Parameters
+    ----------
+    surface : Surface
+    k : {1, 2, 3}
+        The energy's order.
+    weights : str
+        The Laplacian weights the method used.
+    idx, vals, points
+        As the method got them.
+    X : (n, p) numpy array
+        The method's result (the conditional mean).
+    fill_report : dict
+        The fill's report (``smoothing`` gives lambda per field).
+    sample_weights : (k,) array_like, optional
+        The smoothing's weights.
+    variance, samples, seed, solver
+        As :class:`manifill.GPOptions`.
+    """
+    from ..linalg.energies import polyharmonic_energy
+    from ..linalg.gp import intrinsic_std
+    from ..mesh.laplacian import mass_matrix
+    from ..mesh.roots import laplacian_root
+    from ..mesh.topology import pattern_components
+
+    L = surface.laplacian(weights)
+    root = laplacian_root(L, surface.V, surface.F if weights == "cotan" else None)
+    if k == 1:
+        Q, B = L, root
+    else:
+        M = mass_matrix(surface.V, surface.F, kind="voronoi").diagonal()
+        Q = polyharmonic_energy(L, sp.diags_array(M), k)
+        ML = sp.csr_array(sp.diags_array(1.0 / M) @ L)
+        B = sp.csr_array(sp.diags_array(1.0 / np.sqrt(M)) @ L) if k == 2 else (
+            None if root is None else sp.csr_array(root @ ML))
+    oidx, rows, Y = _observations(points, idx, vals)
+    eta = None
+    sm = fill_report.get("smoothing")
+    if sm is not None:
+        lam = np.atleast_1d(np.asarray(sm["lambda"], dtype=np.float64))
+        if np.any(lam == 0):
+            raise SampleError("uncertainty with smoothing=0 is interpolation; pass smoothing=None (or a "
+                              "lambda > 0)")
+        w = np.ones(Y.shape[0]) if sample_weights is None else np.asarray(sample_weights, dtype=np.float64)
+        if lam.size > 1 and not np.all(lam == lam[0]):
+            raise OptionError("uncertainty with smoothing='auto' and several fields needs one lambda for all "
+                              "(their lambdas differ); reconstruct the fields one at a time")
+        eta = lam[0] / w
+    ncomp, _ = pattern_components(Q, symmetric=True)
+    std, rep = intrinsic_std(Q, B, oidx, rows, Y, X, eta=eta, how=variance, samples=samples, seed=seed,
+                             solver=solver, components=int(ncomp))
+    rep["energy"] = k
+    return std, rep

@@ -1,0 +1,131 @@
+"""The result of a reconstruction on a surface: :class:`Reconstruction` (values, masks, std, files)."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, field_names
+
+__all__ = ["Reconstruction"]
+
+
+@dataclass
+class Reconstruction(Result):
+    """The result of :func:`reconstruct` and :func:`reconstruct_surface` (a :class:`manifill.results.Result`).
+
+    Attributes
+    ----------
+    values : (n,) or (n, p) numpy array
+        The field at every vertex, equal to the samples at the samples.
+    curves : list of (l,) int64 numpy arrays
+        The partition curves (``gvf-harmonic``; empty otherwise).
+    components : (n,) int64 numpy array
+        Patch of every vertex, ``-1`` on the curves (all ``0`` for methods
+        without a partition).
+    on_curve : (n,) bool numpy array
+        The vertices whose values were fixed before the harmonic fill.
+    levels : list of (m,) numpy arrays
+        The value levels of each field (Step 1).
+    report : dict
+        Diagnostics: the gradual variation check per field (Lipschitz
+        constant, level step, violations), the partition's report, the
+        harmonic solver's report, and ``seconds`` per step.
+    V : (n, 3) numpy array
+        The surface's vertices (as validated).
+    F : (m, 3) int64 numpy array or None
+        Its triangles (None on a digital surface, which has none).
+    idx : (k,) int64 numpy array
+        The sample vertices (sorted, unique); for samples given as positions,
+        their nearest vertices.
+    points : SurfacePoints or None
+        For samples given as positions: each located at its closest surface point
+        (:class:`manifill.surface.locate.SurfacePoints`: face, barycentric
+        coordinates, distance, nearest vertex); ``None`` for vertex indices.
+    std : (n,) or (n, p) numpy array or None
+        The posterior standard deviation (``method='gp'``, or ``uncertainty=True``);
+        written to files as ``<field>_std``.
+    trusted : (n,) bool numpy array or None
+        With ``trust=``: False where the std of some field exceeds the threshold.
+    """
+
+    values: np.ndarray
+    curves: list
+    components: np.ndarray
+    on_curve: np.ndarray
+    levels: list
+    report: dict = field(default_factory=dict)
+    V: np.ndarray = None
+    F: np.ndarray = None
+    idx: np.ndarray = None
+    points: object = None
+    std: np.ndarray = None
+    trusted: np.ndarray = None
+
+    @property
+    def sample_mask(self):
+        """(n,) bool numpy array: True at the sample vertices."""
+        sample = np.zeros(len(self.values), dtype=bool)
+        sample[self.idx] = True
+        return sample
+
+    def masks(self):
+        """``sample_mask``, ``curve_mask`` (:attr:`on_curve`) and ``patch_label`` (:attr:`components`).
+
+        Examples
+        --------
+        >>> from manifill.mesh.shapes import icosphere
+        >>> V, F = icosphere(2)
+        >>> from manifill.surface.reconstruct import reconstruct
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> list(r.masks()), int(r.masks()["sample_mask"].sum())
+        (['sample_mask', 'curve_mask', 'patch_label'], 5)
+        """
+        out = {SAMPLE_MASK: self.sample_mask, CURVE_MASK: self.on_curve, PATCH_LABEL: self.components}
+        if self.trusted is not None:
+            out[TRUSTED] = self.trusted
+        return out
+
+    def point_data(self, names=None):
+        """The fields and manifill's masks, named as in every output file.
+
+        Parameters
+        ----------
+        names : list of str, optional
+            One name per field (``value``, ``value2``, ... by default).
+
+        Returns
+        -------
+        dict of str to (n,) numpy array
+            The fields, their standard deviations (``<name>_std``, when computed),
+            ``sample_mask``, ``curve_mask``, ``patch_label`` (and ``trusted``).
+        """
+        data = super().point_data(names)
+        if self.std is None:
+            return data
+        S = self.std if self.std.ndim == 2 else self.std[:, None]
+        keys = field_names(names, S.shape[1])
+        out = {key: data.pop(key) for key in keys}
+        out.update({f"{key}_std": S[:, j] for j, key in enumerate(keys)})
+        return {**out, **data}
+
+    def to_pyvista(self, names=None):
+        """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).
+
+        Examples
+        --------
+        >>> from manifill.mesh.shapes import icosphere
+        >>> V, F = icosphere(2)
+        >>> from manifill.surface.reconstruct import reconstruct
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> sorted(r.to_pyvista(["t"]).point_data.keys())
+        ['curve_mask', 'patch_label', 'sample_mask', 't']
+        """
+        from ..mesh.objects import to_pyvista
+
+        return to_pyvista(self.V, self.F, self.point_data(names))
+
+    def to_meshio(self, names=None):
+        """The surface with every field and mask as a ``meshio.Mesh``."""
+        from ..mesh.objects import to_meshio
+
+        return to_meshio(self.V, self.F, self.point_data(names))

@@ -39,6 +39,7 @@ from .solid.tetrahedralize import tetrahedralize
 from .solid.voxelize import voxelize
 from .surface.crossval import CrossValidation, cross_validate
 from .linalg.gp import GPOptions
+from .solid.gp import gp_tets, gp_voxels
 from .surface.curve_values import CurveValues, values_on_curves
 from .surface.fill import fill_patches
 from .surface.gradual import GradualCheck, check_gradual
@@ -56,7 +57,7 @@ __all__ = [
     # surfaces: the pipeline (Steps 1-6) and its steps
     "reconstruct", "Reconstruction", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
-    "CrossValidation", "locate_points", "SurfacePoints", "GPOptions",
+    "CrossValidation", "locate_points", "SurfacePoints", "GPOptions", "gp_tets", "gp_voxels",
     # the harmonic problem and the operators
     "harmonic", "HarmonicSolver", "biharmonic", "PolyharmonicSolver", "laplacian", "mass_matrix", "QuadraticSolver",
     "min_quad_with_fixed",

@@ -1,12 +1,14 @@
 """The numbers of a run's summary: the range of each field, for the lines the command line prints.
 
 The command line holds no numerics: what it prints about values (each field's
-range beside the samples', so that overshoot shows) is computed here.
+range beside the samples', so that overshoot shows) is computed here, and so are the lines
+about a standard deviation (:func:`uncertainty_lines`: the Gaussian process's hyperparameters,
+how the variance was computed, the std's range, the vertices ``trust`` marks).
 """
 
 import numpy as np
 
-__all__ = ["value_ranges"]
+__all__ = ["value_ranges", "uncertainty_lines", "value_columns"]
 
 
 def value_ranges(values, point_ndim=1):
@@ -42,3 +44,99 @@ def value_ranges(values, point_ndim=1):
     lo[some] = np.nanmin(X[:, some], axis=0)
     hi[some] = np.nanmax(X[:, some], axis=0)
     return lo, hi
+
+
+def _numbers(values, fmt=".4g"):
+    values = [values] if not isinstance(values, (list, tuple)) else values
+    shown = [("none" if v is None else format(float(v), fmt)) for v in values]
+    return shown[0] if len(set(shown)) == 1 else ", ".join(shown)
+
+
+def _variance_line(info):
+    how = info.get("how", "?")
+    if how == "sampled":
+        return (f"variance sampled ({info.get('samples', '?')} Monte Carlo samples, relative error of the std median "
+                f"{info.get('rel_se_median', float('nan')):.1%}, largest {info.get('rel_se_max', float('nan')):.1%})")
+    return f"variance {how}"
+
+
+def uncertainty_lines(report, std, trusted=None, point_ndim=1):
+    """The summary lines of a run's standard deviation, for the command line.
+
+    Parameters
+    ----------
+    report : dict
+        A reconstruction's report: ``gp`` (``method='gp'``), ``uncertainty`` (an energy method
+        read as a Gaussian field) and ``trust``, where present.
+    std : numpy array or None
+        The standard deviation (its range is reported); None gives no lines.
+    trusted : numpy array of bool, optional
+        The ``trusted`` mask of ``trust=``.
+    point_ndim : int, optional
+        As for :func:`value_ranges`.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> rep = {"gp": {"alpha": 2, "nu": 1.0, "fitted": ["range"], "range": [0.5], "sigma": [1.0], "noise": [0.0],
+    ...               "loglik": -3.2, "fit": {"samples": 9}, "variance": {"how": "exact"}},
+    ...        "trust": {"threshold": [0.4], "untrusted": 3, "marked": "mask"}}
+    >>> for line in uncertainty_lines(rep, np.array([0.0, 0.25, 0.5]), np.array([True, True, False])):
+    ...     print(line)
+    gp: Matern alpha=2 (nu=1), range 0.5 (fitted), sigma 1 (given), noise 0 (given); restricted log-likelihood -3.2 on 9 samples
+    std: variance exact, std in [0, 0.5]
+    trust: 1 of 3 vertices untrusted (std > threshold 0.4), marked in 'trusted'
+    """
+    lines = []
+    if std is None:
+        return lines
+    gp = report.get("gp")
+    if gp is not None:
+        fitted = gp.get("fitted", [])
+        parts = [f"{name} {_numbers(gp.get(name))} ({'fitted' if name in fitted else 'given'})"
+                 for name in ("range", "sigma", "noise")]
+        bounds = gp.get("fit", {}).get("range_bounds")
+        if "range" in fitted and bounds and gp.get("range"):
+            at = [b for b in bounds if any(abs(r - b) <= 1e-3 * b for r in gp["range"])]
+            if at:  # the likelihood wanted a range beyond the search: say so
+                side = "upper" if at[0] == bounds[-1] else "lower"
+                parts[0] = parts[0][:-1] + f", at the search's {side} bound)"
+        line = f"gp: Matern alpha={gp.get('alpha')} (nu={float(gp.get('nu', 0)):g}), " + ", ".join(parts)
+        if "loglik" in gp:
+            crit = gp.get("fit", {}).get("criterion", "restricted likelihood")
+            what = "restricted log-likelihood" if crit.startswith("restricted") else "log-likelihood"
+            line += f"; {what} {gp['loglik']:.5g} on {gp.get('fit', {}).get('samples', '?')} samples"
+        lines.append(line)
+        info = gp.get("variance", {})
+    else:
+        unc = report.get("uncertainty", {})
+        names = {1: "harmonic", 2: "biharmonic", 3: "triharmonic"}
+        lines.append(f"uncertainty: the {names.get(unc.get('energy'), 'energy')} energy read as an intrinsic "
+                     f"Gaussian field (no range: the std grows away from the samples), scale "
+                     f"{_numbers(unc.get('scale', []))}")
+        info = unc.get("variance", {})
+    lo, hi = value_ranges(std, point_ndim)
+    rng = "; ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi))
+    lines.append(f"std: {_variance_line(info)}, std in {rng}")
+    tr = report.get("trust") or (gp or {}).get("trust")  # a solid's gp keeps it in its gp report
+    if tr is not None and trusted is not None:
+        t = np.asarray(trusted, dtype=bool)
+        t = t[np.isfinite(np.asarray(std, dtype=np.float64).reshape(t.shape + (-1,))[..., 0])] if t.ndim > 1 else t
+        nan = ", values set NaN there" if "nan" in (tr.get("marked"), tr.get("untrusted")) else ""
+        lines.append(f"trust: {int((~t).sum()):,} of {t.size:,} {'vertices' if point_ndim == 1 else 'voxels'} "
+                     f"untrusted (std > threshold {_numbers(tr.get('threshold', []))}), marked in 'trusted'{nan}")
+    return lines
+
+
+def value_columns(point_data, names):
+    """The columns ``names`` of ``point_data`` as one ``(n, p)`` float64 table (masks as 0 and 1), for a value file.
+
+    Examples
+    --------
+    >>> value_columns({"t": [1.0, 2.0], "trusted": [True, False]}, ["t", "trusted"]).tolist()
+    [[1.0, 1.0], [2.0, 0.0]]
+    """
+    return np.column_stack([np.asarray(point_data[name], dtype=np.float64) for name in names])

@@ -17,7 +17,8 @@ from pathlib import Path
 from ..errors import OptionError, SampleError, WriteError
 
 __all__ = ["load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
-           "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err"]
+           "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "STD_METHODS",
+           "wants_std", "uncertainty_opts", "std_names", "print_uncertainty"]
 
 
 def load(args, keep_points=False):
@@ -195,26 +196,37 @@ def print_time(args, seconds):
 
 
 def chosen_field(args, names):
-    """The field ``--field`` names (the first by default), checked before the work."""
+    """The field ``--field`` names (the first by default), checked before the work.
+
+    ``names`` are the value fields; ``--field`` may also name what the run adds (:func:`std_names`:
+    ``<field>_std``, ``trusted``).
+    """
     name = getattr(args, "field", None)
     if name is None:
         return names[0]
-    if name not in names:
-        from ..errors import OptionError
-
-        raise OptionError(f"--field {name!r} is not one of the fields ({', '.join(names)}); pick one of them")
+    choices = list(names) + [n for n in std_names(args, names) if n not in names]
+    if name not in choices:
+        raise OptionError(f"--field {name!r} is not one of the fields ({', '.join(choices)}); pick one of them")
     return name
 
 
-def pictures(args, V, F, X, names, samples=None, curves=None, title=None):
-    """--render PNG (the --field) and --html viewer (every field, --field shown first) of a surface result."""
+def pictures(args, V, F, X, names, samples=None, curves=None, title=None, extra=None):
+    """--render PNG and --html viewer (every field, --field shown first) of a surface result.
+
+    ``extra``: the point fields the run adds (``<field>_std``, ``trusted``). The PNG shows the --field,
+    and when it is a value field with a std, the std beside it (and ``trusted`` with --trust), each
+    on its own colour bar.
+    """
     field = chosen_field(args, names)
     fields = {name: X[:, j] for j, name in enumerate(names)}
+    fields.update(extra or {})
     if getattr(args, "render", None):
-        from ..viz.render import render
+        from ..viz.render import render_fields
 
-        render(V, F, fields[field], args.render, samples=samples, curves=curves, title=title or field, name=field)
-        print(f"rendered {args.render} ({field})")
+        show = [field] + ([k for k in (f"{field}_std", "trusted") if k in fields] if field in names else [])
+        render_fields(V, F, {k: fields[k] for k in show}, args.render, show=show, samples=samples, curves=curves,
+                      title=title)
+        print(f"rendered {args.render} ({', '.join(show)})")
     if getattr(args, "html", None):
         from ..viz.viewer import write_html
 
@@ -246,6 +258,10 @@ def check_names(args, S, out):
     from ..io import check_field_names
 
     check_field_names(S.names, out)
+    added = [name for name in std_names(args, S.names) if name in S.names]
+    if added:
+        raise WriteError(f"field name {added[0]!r} is also the name of a std this run writes; rename the value "
+                         f"column")
     chosen_field(args, S.names)
 
 
@@ -257,3 +273,131 @@ def print_ranges(X, S, out):
     for j, name in enumerate(S.names):
         print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{slo[j]:.6g}, {shi[j]:.6g}])")
     print(f"wrote {out}")
+
+
+#: the methods with a probability model (a standard deviation): --uncertainty and --trust take only these
+STD_METHODS = ("gp", "harmonic", "biharmonic", "triharmonic")
+_GP_FLAGS = (("gp_alpha", "--gp-alpha"), ("gp_range", "--gp-range"), ("gp_sigma", "--gp-sigma"), ("noise", "--noise"),
+             ("variance", "--variance"), ("variance_samples", "--variance-samples"))
+
+
+def _auto_or_number(text, flag, zero=False):
+    """``X|auto`` of a gp option: 'auto' or a finite number > 0 (>= 0 with ``zero``)."""
+    if text == "auto":
+        return text
+    try:
+        x = float(text)
+    except ValueError:
+        x = float("nan")
+    if not (x == x and abs(x) != float("inf") and (x > 0 or (zero and x == 0))):
+        raise OptionError(f"{flag} {text!r} is not a number {'>=' if zero else '>'} 0 or 'auto'; pass e.g. "
+                          f"{flag} {'0' if zero else '0.5'} or {flag} auto")
+    return x
+
+
+def wants_std(args):
+    """Whether the run computes a standard deviation (--method gp, --uncertainty or --trust)."""
+    return (getattr(args, "method", None) == "gp" or getattr(args, "uncertainty", False)
+            or getattr(args, "trust", None) is not None)
+
+
+def uncertainty_opts(args, methods=STD_METHODS):
+    """The keywords of ``--method gp``, ``--uncertainty``, ``--trust`` and ``--untrusted`` for the library.
+
+    Every combination the library would refuse is refused here first, naming the flags, before
+    anything is read. ``methods``: those that give a std (in a solid, ``('gp',)`` alone).
+
+    Returns
+    -------
+    dict
+        ``gp`` (the options of :class:`manifill.GPOptions` given on the command line), ``uncertainty``,
+        ``trust``, ``untrusted``: only those that apply.
+
+    Raises
+    ------
+    OptionError
+        A gp option without --method gp, --uncertainty or --trust with a method that has no standard
+        deviation, --untrusted without --trust, a bad number.
+    """
+    method = args.method
+    named = method or "the default method (gvf-harmonic)"
+    given = [flag for key, flag in _GP_FLAGS if getattr(args, key, None) is not None]
+    if given and method != "gp":
+        hint = " (the energy methods take noisy samples with --smoothing)" if given[0] == "--noise" else ""
+        raise OptionError(f"{given[0]} is an option of --method gp, not of {named}; pass --method gp or leave "
+                          f"{given[0]} out{hint}")
+    if (args.uncertainty or args.trust is not None) and method not in methods:
+        flag = "--uncertainty" if args.uncertainty else "--trust"
+        why = " (its curve values are estimates, not a model)" if method in (None, "gvf-harmonic", "gvf") else ""
+        if len(methods) == 1:
+            why, which = " in a solid (the harmonic fill of the inside is not a model)", methods[0]
+        else:
+            which = f"{', '.join(methods[:-1])} or {methods[-1]}"
+        raise OptionError(f"{flag} needs a probability model, and {named} has none{why}; pass --method {which}")
+    if method == "gp":
+        for key, flag, fix in (("bounds", "--bounds", "leave it out"),
+                               ("smoothing", "--smoothing", "give the samples' noise as --noise X or --noise auto")):
+            if getattr(args, key, None) is not None:
+                raise OptionError(f"{flag} does not apply to --method gp (a Gaussian posterior mean); {fix}")
+        if getattr(args, "weights", None) not in (None, "cotan"):
+            raise OptionError(f"--method gp uses the finite-element (cotan) stiffness, not --weights {args.weights}; "
+                              f"leave --weights out")
+        if getattr(args, "solver", None) == "iterate":
+            raise OptionError("--method gp solves with --solver direct or amg (or auto), not iterate; pick one of "
+                              "those")
+    elif args.uncertainty or args.trust is not None:
+        if getattr(args, "bounds", None) is not None:
+            raise OptionError("--uncertainty (or --trust) and --bounds together are not supported: a bounded fill "
+                              "is not a Gaussian posterior mean; leave one out")
+    if args.untrusted is not None and args.trust is None:
+        raise OptionError("--untrusted says what --trust does where the std is too large; pass --trust T too, or "
+                          "leave --untrusted out")
+    if args.trust is not None and not (args.trust > 0 and args.trust != float("inf")):
+        raise OptionError(f"--trust {args.trust:g} is not a number > 0 (a multiple of the samples' standard "
+                          f"deviation); pass e.g. --trust 1")
+    out = {}
+    if method == "gp":
+        gp = {}
+        for key, flag, name, zero in (("gp_range", "--gp-range", "range", False),
+                                      ("gp_sigma", "--gp-sigma", "sigma", False), ("noise", "--noise", "noise", True)):
+            if getattr(args, key) is not None:
+                gp[name] = _auto_or_number(getattr(args, key), flag, zero)
+        if args.gp_alpha is not None:
+            gp["alpha"] = args.gp_alpha
+        if args.gp_alpha == 1 and not isinstance(gp.get("sigma", "auto"), str):
+            raise OptionError("--gp-sigma needs --gp-alpha 2: the field of alpha 1 has no finite prior standard "
+                              "deviation; leave --gp-sigma out")
+        if args.variance is not None:
+            gp["variance"] = args.variance
+        if args.variance_samples is not None:
+            if args.variance == "exact":
+                raise OptionError("--variance-samples is the Monte Carlo count of --variance sampled (or auto), "
+                                  "not of --variance exact; leave one out")
+            if args.variance_samples < 2:
+                raise OptionError(f"--variance-samples {args.variance_samples} is below 2; pass e.g. "
+                                  f"--variance-samples 100")
+            gp["samples"] = args.variance_samples
+        out["gp"] = gp or None
+    if args.uncertainty:
+        out["uncertainty"] = True
+    if args.trust is not None:
+        out["trust"] = args.trust
+    if args.untrusted is not None:
+        out["untrusted"] = args.untrusted
+    return out
+
+
+def std_names(args, names):
+    """The point fields a run adds to ``names``: ``<name>_std`` for each (with a std) and ``trusted`` (--trust)."""
+    from ..results import TRUSTED
+
+    extra = [f"{name}_std" for name in names] if wants_std(args) else []
+    return extra + ([TRUSTED] if getattr(args, "trust", None) is not None else [])
+
+
+def print_uncertainty(report, std, trusted, point_ndim=1):
+    """The summary lines of the std (--method gp, --uncertainty) and of --trust."""
+    from ..report import uncertainty_lines
+
+    for line in uncertainty_lines(report, std, trusted, point_ndim):
+        print(line)

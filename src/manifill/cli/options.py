@@ -8,7 +8,7 @@ from ..surface.partition import PARTITIONS
 from ..surface.reconstruct import METHODS
 from ..linalg.backends import SOLVERS
 
-__all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args",
+__all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
            "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
 
 MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
@@ -81,3 +81,31 @@ def pipeline_args(s, *, method_help="default: the measured default, gvf-harmonic
                    help="default: monotone for the default method, hermite for --method gvf-harmonic")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
+
+
+def uncertainty_args(s):
+    """--uncertainty, --trust, --untrusted and the options of --method gp, shared by reconstruct and volume."""
+    g = s.add_argument_group("uncertainty and --method gp (a Matérn Gaussian process)")
+    g.add_argument("--uncertainty", action="store_true",
+                   help="also write each field's posterior standard deviation as <field>_std (--method gp always "
+                        "does; harmonic, biharmonic and triharmonic read as Gaussian fields)")
+    g.add_argument("--gp-alpha", type=int, choices=(1, 2), default=None,
+                   help="gp: SPDE order, 2 (default: Matérn nu = 1 on a surface) or 1")
+    g.add_argument("--gp-range", default=None, metavar="X|auto",
+                   help="gp: distance at which the correlation falls to about 0.13, in mesh units (default: auto, "
+                        "fitted by restricted likelihood)")
+    g.add_argument("--gp-sigma", default=None, metavar="X|auto",
+                   help="gp: prior standard deviation of the field (default: auto, fitted)")
+    g.add_argument("--noise", default=None, metavar="X|auto",
+                   help="gp: standard deviation of the measurement noise, in value units (default: 0, the samples "
+                        "are interpolated; auto: fitted)")
+    g.add_argument("--variance", choices=("auto", "exact", "sampled"), default=None,
+                   help="gp: how the std is computed: exact (dense), sampled (Monte Carlo, with its error in the "
+                        "summary) or auto (default: exact for small meshes)")
+    g.add_argument("--variance-samples", type=int, default=None, metavar="N",
+                   help="gp: Monte Carlo samples of --variance sampled (default: 100; error about 1/sqrt(N))")
+    g.add_argument("--trust", type=float, default=None, metavar="T",
+                   help="mark as untrusted (point field 'trusted' = 0) every vertex where a field's std exceeds T "
+                        "times the standard deviation of its samples (implies --uncertainty)")
+    g.add_argument("--untrusted", choices=("mask", "nan"), default=None,
+                   help="what --trust does there: mask only (default) or also set the value NaN")

@@ -3,8 +3,8 @@
 from ..surface.energy_fill import ENERGY_METHODS
 from ..surface.reconstruct import STEPS
 from .common import (bounds_arg, check_names, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
-                     surface_outputs, write_surface)
-from .options import energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args
+                     print_uncertainty, std_names, surface_outputs, uncertainty_opts, wants_std, write_surface)
+from .options import energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args, uncertainty_args
 
 __all__ = ["add_parser", "run"]
 
@@ -20,6 +20,7 @@ def add_parser(sub):
     fill_args(s)
     pipeline_args(s)
     energy_args(s)
+    uncertainty_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
     picture_args(s)
@@ -33,25 +34,31 @@ def run(args):
     from ..surface.reconstruct import reconstruct
 
     out = surface_outputs(args)
-    # the energy methods constrain positions exactly where they are, the others use the nearest vertices
-    exact = args.method in ENERGY_METHODS
+    std_opts = uncertainty_opts(args)
+    # the energy methods and gp constrain positions exactly where they are, the others use the nearest vertices
+    exact = args.method in ENERGY_METHODS or args.method == "gp"
     V, F, S = load(args, keep_points=exact)
     check_names(args, S, out)
     if args.subdivide:
         from ..mesh.subdivide import check_subdivide
 
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
-    bar = step_bar(args, ("graph",) + STEPS[args.method or "gvf-harmonic"])
+    steps = STEPS[args.method or "gvf-harmonic"] + (("uncertainty",) if wants_std(args) and args.method != "gp"
+                                                     else ())
+    bar = step_bar(args, ("graph",) + steps)
     try:
         where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
                                                                              max_distance=args.max_snap)
         r = reconstruct(V, F, **where, method=args.method, partition=args.partition, weights=args.weights,
                         distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
                         solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates,
-                        bounds=bounds_arg(args.bounds), smoothing=smoothing_arg(args.smoothing), progress=bar)
+                        bounds=bounds_arg(args.bounds), smoothing=smoothing_arg(args.smoothing), progress=bar,
+                        **std_opts)
     finally:
         bar.close()
     X = r.fields()
+    data = r.point_data(S.names)
+    added = {key: data[key] for key in std_names(args, S.names) if key in data}
     if args.subdivide:
         from ..mesh.subdivide import subdivide
 
@@ -61,11 +68,19 @@ def run(args):
         else:
             write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
         print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
-              f"the masks are not written)")
+              f"the masks{' and the std' if added else ''} are not written)")
+    elif out.suffix.lower() == ".csv" and added:  # the std and trusted columns after the values
+        from ..report import value_columns
+
+        columns = list(S.names) + list(added)
+        write_values(out, value_columns(data, columns), columns)
     elif out.suffix.lower() in VALUE_FORMATS:
         write_values(out, X, S.names)
+        if added:
+            print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .csv or "
+                  f".vtu for them)")
     else:
-        write_surface(out, V, F, r.point_data(S.names))
+        write_surface(out, V, F, data)
     rep = r.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
     if "points" in rep and rep["points"]["located"] != "nearest vertex":
@@ -105,7 +120,8 @@ def run(args):
     if "auto" in rep:  # method='auto': the cross-validation table and the choice
         print(rep["auto"]["table"])
         print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
+    print_uncertainty(rep, r.std, r.trusted)
     print_time(args, rep["seconds"])
     print_ranges(X, S, out)
-    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}")
+    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}", extra=added)
     return 0

@@ -3,7 +3,7 @@
 from pathlib import Path
 
 from ..errors import SampleError
-from .options import SOLVERS, WEIGHTS, output_args, pipeline_args
+from .options import SOLVERS, WEIGHTS, output_args, pipeline_args, uncertainty_args
 
 __all__ = ["add_parser", "run"]
 
@@ -42,10 +42,13 @@ def add_parser(sub):
                         "has no triangles)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="surface linear solver (default: auto)")
     pipeline_args(s, method_help="surface method (default: the measured default, gvf-harmonic with monotone curve "
-                                     "values and --bounds samples)")
+                                     "values and --bounds samples); gp: a Matern Gaussian process over the whole "
+                                     "solid (no surface pass; --fill-solver its solver), with its std")
+    uncertainty_args(s)
     s.add_argument("--render", default=None, metavar="OUT.png",
                    help="also render three slices through the solid (voxels) or its boundary (tets) as a PNG")
-    s.add_argument("--field", default=None, metavar="NAME", help="the field --render draws (default: the first)")
+    s.add_argument("--field", default=None, metavar="NAME",
+                   help="the field --render draws (default: the first; <field>_std or trusted with --method gp)")
     output_args(s)
     s.set_defaults(func=run)
 
@@ -65,7 +68,7 @@ def _triple(text, what):
 def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
     from ..surface.reconstruct import STEPS
-    from .common import check_outputs, levels, step_bar
+    from .common import check_outputs, levels, step_bar, uncertainty_opts
     from ..errors import ReadError, WriteError
     from ..io import GRID_FORMATS, TET_FORMATS, has_tets
 
@@ -80,12 +83,14 @@ def run(args):
                          f"the output name")
     out, _ = check_outputs([("-o", args.output, allowed), ("--render", args.render, (".png",))],
                            [args.mesh, args.samples])
+    std_opts = uncertainty_opts(args, methods=("gp",))
     # the mask's digital surface is built without a "graph" step; a surface is first voxelised or tetrahedralised
     solid = {"mask": (), "tets": ()}.get(kind, ("voxelize",) if form == "voxels" else ("tetrahedralize",))
-    bar = step_bar(args, ("graph",) * (kind != "mask") + STEPS[args.method or "gvf-harmonic"] + solid + ("fill",))
+    steps = ("graph",) * (kind != "mask") + STEPS[args.method or "gvf-harmonic"] + solid + ("fill",)
+    bar = step_bar(args, () if args.method == "gp" else steps)  # the solid's gp has no surface steps
     surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
                         levels=levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
-                        solver=args.solver, progress=bar)
+                        solver=args.solver, progress=bar, **std_opts)
     if args.weights is not None:  # else the library's default for the kind of solid
         surface_opts["weights"] = args.weights
     try:
@@ -148,35 +153,44 @@ def _volume_run(args, kind, form, surface_opts):
 
 def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
-    from .common import chosen_field, print_time
+    from .common import chosen_field, print_time, print_uncertainty, std_names
     from ..io import write_tets, write_vti
     from ..report import value_ranges
     from ..solid.tets import boundary_faces
 
     X = r.fields()
+    data = r.point_data(S.names)
     if form == "voxels":
         # a .npy holds the one field alone
-        write_vti(out, r.point_data(S.names) if ext == ".vti" else {S.names[0]: X[..., 0]}, r.spacing, r.origin)
-        fill = r.report["fill"]
+        write_vti(out, data if ext == ".vti" else {S.names[0]: X[..., 0]}, r.spacing, r.origin)
+        added = [k for k in std_names(args, S.names) if k in data]
+        if ext != ".vti" and added:
+            print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .vti for "
+                  f"them)")
         spacing = [round(float(v), 6) for v in r.spacing]
-        print(f"voxels: grid {X.shape[:3]}, spacing {spacing}, {fill['voxels']:,} inside, "
-              f"{fill['fixed']:,} on the boundary D, {fill['unknowns']:,} filled ({fill['solver']}, "
-              f"connectivity {fill['connectivity']}, iterations {fill['iterations']})")
+        fill = r.report.get("fill")
+        if fill is not None:
+            print(f"voxels: grid {X.shape[:3]}, spacing {spacing}, {fill['voxels']:,} inside, "
+                  f"{fill['fixed']:,} on the boundary D, {fill['unknowns']:,} filled ({fill['solver']}, "
+                  f"connectivity {fill['connectivity']}, iterations {fill['iterations']})")
+        else:  # method='gp': no fill, the posterior over every voxel
+            print(f"voxels: grid {X.shape[:3]}, spacing {spacing}, the gp over every voxel of the solid")
     else:
-        write_tets(out, r.TV, r.TT, r.point_data(S.names))
+        write_tets(out, r.TV, r.TT, data)
         print(f"tets: {len(r.TV):,} vertices, {len(r.TT):,} tetrahedra")
-    print_time(args, r.report["seconds"])
-    j = S.names.index(chosen_field(args, S.names))
+    print_uncertainty(r.report, getattr(r, "std", None), getattr(r, "trusted", None), r.point_ndim)
+    print_time(args, r.report.get("seconds", r.report.get("gp", {}).get("seconds", {})))
+    field = chosen_field(args, S.names)
     if getattr(args, "render", None):
         if form == "voxels":
             from ..viz.render import render_slices
 
-            render_slices(X[..., j], r.spacing, r.origin, args.render, name=S.names[j])
+            render_slices(data[field], r.spacing, r.origin, args.render, name=field)
         else:
             from ..viz.render import render
 
-            render(r.TV, boundary_faces(r.TT), X[:, j], args.render, name=S.names[j], title="boundary of the solid")
-        print(f"rendered {args.render} ({S.names[j]})")
+            render(r.TV, boundary_faces(r.TT), data[field], args.render, name=field, title="boundary of the solid")
+        print(f"rendered {args.render} ({field})")
     (lo, hi), (vlo, vhi) = value_ranges(S.vals), value_ranges(X, r.point_ndim)
     for j, name in enumerate(S.names):
         print(f"{name}: samples in [{lo[j]:.4g}, {hi[j]:.4g}], solid in [{vlo[j]:.4g}, {vhi[j]:.4g}]")

@@ -73,7 +73,7 @@ class GPOptions:
     variance: str = "auto"
     samples: int = 100
     seed: int = 0
-    fit_samples: int = 400
+    fit_samples: int = 200
 
 
 def _positive(name, v, zero=False):
@@ -245,7 +245,7 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
     eta_key = [(kappa[j], None if s2[j] is None or n2[j] == 0 else n2[j] / s2[j]) for j in range(p)]
     for (kap, eta), cols in _groups(eta_key).items():
         Q, B = shape.precision(kap), shape.root(kap)
-        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=solver)
+        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver))
         known = not isinstance(opts.mean, str)
         data = Y[:, cols] - (float(opts.mean) if known else 0.0)
         Z = cond.extend(np.column_stack([data, np.ones(m)]))
@@ -283,7 +283,7 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
 
 def _fit_sigma_given(covariance, Y, bounds, opts, s2_of_sigma, cols, noise2, fit_noise):
     """``sigma`` given, ``range`` fitted: the scale moves with ``kappa``, so each ``kappa`` fixes it."""
-    from .gpfit import _bounded
+    from .gpfit import bounded_search
 
     cache = {}
 
@@ -296,12 +296,17 @@ def _fit_sigma_given(covariance, Y, bounds, opts, s2_of_sigma, cols, noise2, fit
         cache[lk] = (v, params)
         return v
 
-    lk, _ = _bounded(objective, *(math.log(b) for b in bounds))
+    lk, _ = bounded_search(objective, *(math.log(b) for b in bounds))
     if lk not in cache:
         objective(lk)
     v, params = cache[lk]
     return {"kappa": math.exp(lk), "s2": [q[0] for q in params], "noise2": [q[1] for q in params],
             "neg2loglik": v, "loglik": -0.5 * v, "evaluations": len(cache)}
+
+
+def _many_rhs(solver):
+    """``auto`` factorises: the variance takes ``samples`` solves, and CG would pay for each one anew."""
+    return "direct" if solver == "auto" else solver
 
 
 def _observations(n, idx, rows):
@@ -330,7 +335,7 @@ def intrinsic_std(Q, B, idx, rows, Y, X, *, eta=None, how="auto", samples=100, s
     if m <= components:
         raise SampleError(f"a standard deviation needs more samples than components ({components}), got {m}; "
                           f"add samples")
-    cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=solver)
+    cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver))
     G = cond.gram(Y, X)
     var, info = cond.variance(how, samples=samples, seed=seed)
     scale = [math.sqrt(max(G[j, j] / (m - components), 0.0)) for j in range(p)]

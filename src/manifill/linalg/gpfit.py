@@ -18,7 +18,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-__all__ = ["Likelihood", "restricted_loglik", "fit_range"]
+__all__ = ["Likelihood", "bounded_search", "restricted_loglik", "fit_range"]
 
 _LOG2PI = math.log(2.0 * math.pi)
 
@@ -72,7 +72,7 @@ class Likelihood:
         return ld + q + self.dof() * _LOG2PI
 
 
-def _bounded(f, lo, hi):
+def bounded_search(f, lo, hi):
     """Minimise ``f`` on ``[lo, hi]`` (log scale): a grid of 9, then Brent in the best bracket."""
     grid = np.linspace(lo, hi, 9)
     vals = [f(g) for g in grid]
@@ -113,7 +113,7 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
         def total(le):
             return sum(lik.profiled(math.exp(le), j)[0] for j in cols)
 
-        le, v = _bounded(total, lo, hi)
+        le, v = bounded_search(total, lo, hi)
         v0 = sum(lik.profiled(0.0, j)[0] for j in cols)  # no noise at all: the end of the log scale
         eta = 0.0 if v0 <= v else math.exp(le)
         out = [lik.profiled(eta, j) for j in cols]
@@ -122,11 +122,11 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
     for j in cols:
         if s2 is None:  # absolute noise given: search the scale
             n2 = float(noise2[j])
-            ls, v = _bounded(lambda x: lik.absolute(math.exp(x), n2, j), math.log(1e-12), math.log(1e12))
+            ls, v = bounded_search(lambda x: lik.absolute(math.exp(x), n2, j), math.log(1e-12), math.log(1e12))
             params.append((math.exp(ls), n2))
         elif fit_noise:  # scale given: search the noise
             sj = float(s2[j])
-            ln, v = _bounded(lambda x: lik.absolute(sj, math.exp(x), j), math.log(sj * scale * 1e-8),
+            ln, v = bounded_search(lambda x: lik.absolute(sj, math.exp(x), j), math.log(sj * scale * 1e-8),
                              math.log(sj * scale * 10.0))
             v0 = lik.absolute(sj, 0.0, j)
             if v0 <= v:
@@ -175,7 +175,7 @@ def fit_range(covariance, Y, kappa_bounds, *, mean="constant", s2=None, noise2=N
 
     if kappa is None:
         lo, hi = (math.log(b) for b in kappa_bounds)
-        lk, _ = _bounded(objective, lo, hi)
+        lk, _ = bounded_search(objective, lo, hi)
     else:
         lk = math.log(kappa)
     if lk not in cache:

@@ -33,7 +33,7 @@ from ..linalg.backends import SOLVERS
 from ..memory import check_fits
 from ..mesh.objects import mesh_arrays
 from ..progress import tick
-from ..results import BOUNDARY_MASK, SAMPLE_MASK, Result
+from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result
 from ..surface.reconstruct import Reconstruction, check_options, reconstruct, reconstruct_surface
 from ..validate import as_mask, as_samples, as_tets, as_voxels, check_option
 from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, surface_to_points,
@@ -41,6 +41,7 @@ from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, 
 from .estimates import (FORMS, TET_FILL_SOLVERS, check_fill_solver, mask_fill_estimate, n_fields,
                         tet_mesh_fill_estimate, volume_estimate)
 from .fill import FILL_SOLVERS, VoxelFill, tet_fill
+from .gp import finish, gp_tets, gp_voxels, split_gp_options, std_point_data, volume_gp
 from .tetrahedralize import tetrahedralize
 from .tets import boundary_faces, boundary_vertices
 from .voxels import as_connectivity, as_origin, as_spacing, voxel_centres
@@ -62,7 +63,7 @@ class VolumeReconstruction(Result):
     form : {'voxels', 'tets'}
     surface : Reconstruction
         Steps 1-6 on the boundary surface (on the digital surface for a mask:
-        its vertices are ``surface_voxels``).
+        its vertices are ``surface_voxels``); None with ``method='gp'`` (no surface pass).
     mask : (n0, n1, n2) bool numpy array or None
     spacing, origin : (3,) numpy arrays or None
         The grid: voxel ``(i, j, k)`` is at ``origin + (i, j, k) * spacing``.
@@ -78,6 +79,9 @@ class VolumeReconstruction(Result):
         Where the samples are in the solid: tets, the ``(k,)`` vertices of
         ``TV``; a mask, the ``(k, 3)`` sampled voxels; a voxelised surface,
         None (its samples are surface vertices, not voxels).
+    std, trusted : numpy arrays or None
+        ``method='gp'`` (:mod:`manifill.solid.gp`): the posterior std, shaped like ``values``
+        (written as ``<field>_std``), and with ``trust=`` the ``trusted`` mask.
 
     Examples
     --------
@@ -101,6 +105,8 @@ class VolumeReconstruction(Result):
     surface_voxels: np.ndarray = None
     report: dict = field(default_factory=dict)
     samples: np.ndarray = None
+    std: np.ndarray = None
+    trusted: np.ndarray = None
 
     @property
     def point_ndim(self):
@@ -117,14 +123,19 @@ class VolumeReconstruction(Result):
             ``BOUNDARY_MASK`` (the vertices of :func:`manifill.solid.tets.boundary_faces`)
             and ``SAMPLE_MASK`` (the sample vertices), (N,) bool.
         """
+        extra = {} if self.trusted is None else {TRUSTED: self.trusted}
         if self.form == "voxels":
-            return {BOUNDARY_MASK: self.fixed}
+            return {BOUNDARY_MASK: self.fixed, **extra}
         boundary = np.zeros(len(self.TV), dtype=bool)
         boundary[boundary_vertices(self.TT)] = True
         sample = np.zeros(len(self.TV), dtype=bool)
         if self.samples is not None:
             sample[self.samples] = True
-        return {BOUNDARY_MASK: boundary, SAMPLE_MASK: sample}
+        return {BOUNDARY_MASK: boundary, SAMPLE_MASK: sample, **extra}
+
+    def point_data(self, names=None):
+        """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
+        return std_point_data(super().point_data(names), self.std, names, self.point_ndim)
 
     def to_pyvista(self, names=None):
         """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).
@@ -220,7 +231,8 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
         Voxelise an open surface by winding numbers instead of refusing it.
     **options
         Passed to :func:`manifill.reconstruct` for Steps 1-6 (``method``,
-        ``partition``, ``weights``, ``curve_values``, ...).
+        ``partition``, ``weights``, ``curve_values``, ...). ``method='gp'`` (with ``gp``, ``uncertainty``,
+        ``trust``, ``untrusted``): the gp over the solid, no surface pass (:func:`manifill.solid.gp.volume_gp`).
 
     Returns
     -------
@@ -256,9 +268,14 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     check_fill_solver(fill_solver, FILL_SOLVERS if form == "voxels" else TET_FILL_SOLVERS)
     _check_form_options(form, resolution, connectivity, max_volume, fill_weights, allow_open)
     V, F = mesh_arrays(V, F)
+    gpo = split_gp_options(options.get("method"), options)
     _surface_options(options)
     # refuse a volume that will not fit before Steps 1-6 on the surface
     check_fits(*volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solver, n_fields(vals)))
+    if options.get("method") == "gp":  # the gp over the whole solid, no surface pass
+        return volume_gp(V, F, idx, vals, gpo, form=form, resolution=resolution, connectivity=connectivity,
+                            max_volume=max_volume, allow_open=allow_open, fill_solver=fill_solver,
+                            duplicates=options.get("duplicates", "error"))
     t0 = time.perf_counter()
     surf = reconstruct(V, F, idx, vals, **options)
     seconds = {"surface": time.perf_counter() - t0}
@@ -313,7 +330,8 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
         ``auto``: ``direct`` up to :data:`manifill.solid.fill.AUTO_DIRECT_MAX` free
         vertices, ``amg`` above (``multigrid`` is for voxels: an OptionError here).
     **options
-        Passed to :func:`manifill.reconstruct` for Steps 1-6.
+        Passed to :func:`manifill.reconstruct` for Steps 1-6; ``method='gp'`` (with ``gp``, ``uncertainty``,
+        ``trust``, ``untrusted``): the gp over the tets, samples anywhere (:func:`manifill.solid.gp.gp_tets`).
 
     Returns
     -------
@@ -340,7 +358,11 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
     >>> r.values.shape == (len(TV),), int(r.point_data()["sample_mask"].sum())
     (True, 41)
     """
+    gpo = split_gp_options(options.get("method"), options)
     _surface_options(options)
+    if options.get("method") == "gp":  # the gp over the tets, samples anywhere
+        return finish(gp_tets(V, T, idx, vals, gp=gpo.get("gp"), trust=gpo.get("trust"), solver=fill_solver,
+                                    untrusted=gpo.get("untrusted", "mask")), gpo)
     t0 = time.perf_counter()
     V, T = as_tets(V, T, allow_degenerate=fill_weights == "uniform")
     n = len(V)
@@ -370,7 +392,8 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
 def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6,
                             fill_solver="auto", method=None, partition="delaunay", weights="uniform",
                             distance="length", levels=None, curve_values=None, solver="auto",
-                            duplicates="error", progress=None):
+                            duplicates="error", progress=None, gp=None, uncertainty=None, trust=None,
+                            untrusted="mask"):
     """Steps 1-8 on a voxel mask: reconstruct on its digital boundary surface, fill the inside.
 
     Parameters
@@ -396,6 +419,9 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
         Told the name of each step as it starts.
     method, partition, distance, levels, curve_values, duplicates
         Steps 1-6, as :func:`manifill.reconstruct`.
+    gp, uncertainty, trust, untrusted
+        ``method='gp'`` only: the gp over the voxels, samples anywhere in the mask
+        (:func:`manifill.solid.gp.gp_voxels`, ``fill_solver`` its solver).
 
     Returns
     -------
@@ -436,6 +462,10 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     check_fill_solver(fill_solver, FILL_SOLVERS)
     # before the digital surface and Steps 1-6
     check_fits(*mask_fill_estimate(mask, fill_solver, connectivity))
+    gpo = split_gp_options(method, {"gp": gp, "uncertainty": uncertainty, "trust": trust, "untrusted": untrusted})
+    if method == "gp":  # the gp over the voxels, samples anywhere in the mask
+        return finish(gp_voxels(mask, voxels, vals, spacing=h, origin=origin, connectivity=connectivity, gp=gp,
+                                    trust=trust, untrusted=untrusted, solver=fill_solver, duplicates=duplicates), gpo)
     on_d, P, E, normals = digital_surface(mask, h, origin, connectivity)
     voxels = as_voxels(voxels, mask.shape, unique=False)  # repeats are merged (or refused) by duplicates
     where = surface_vertex_of_voxels(on_d, voxels, mask.shape)

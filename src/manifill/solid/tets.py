@@ -33,8 +33,8 @@ import scipy.sparse as sp
 from ..mesh.edges import EdgeIndex
 from ..validate import as_cells, as_mesh, as_tets, bbox_diagonal, check_option, unit_scale
 
-__all__ = ["WEIGHTS", "tet_laplacian", "tet_mass_matrix", "boundary_faces", "boundary_vertices", "tet_volumes",
-           "negative_tets", "rows_once", "surface_volume", "unit_volume"]
+__all__ = ["WEIGHTS", "tet_laplacian", "tet_mass_matrix", "tet_gradient_root", "boundary_faces", "boundary_vertices",
+           "tet_volumes", "negative_tets", "rows_once", "surface_volume", "unit_volume"]
 
 WEIGHTS = ("cotan", "uniform")
 
@@ -232,6 +232,59 @@ def tet_mass_matrix(V, T):
     M = sp.csr_array((m, ramp[:-1], ramp), shape=(n, n))
     M.has_sorted_indices = True
     return M
+
+
+def tet_gradient_root(V, T):
+    """``B`` (three rows per tet) with ``B' B`` the cotan stiffness :func:`tet_laplacian` of ``(V, T)``.
+
+    Row ``3t + c`` holds coordinate ``c`` of ``sqrt(volume_t) grad(phi_j)`` on tet ``t``, so
+    ``x' B' B x = sum_t volume_t |grad x|^2`` is the Dirichlet energy of the linear
+    interpolant. Used to draw Gaussian fields whose precision holds the stiffness
+    (:mod:`manifill.mesh.roots` has the roots of surface Laplacians).
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+    T : (m, 4) array_like of int
+        Tetrahedra of nonzero volume, either orientation.
+
+    Returns
+    -------
+    (3m, n) scipy.sparse.csr_array
+        Computed on positions centred and scaled to a unit bounding-box diagonal,
+        then multiplied by the square root of that diagonal, as the stiffness is.
+
+    Raises
+    ------
+    MeshError
+        If ``(V, T)`` is malformed or has a zero-volume tet.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]])
+    >>> T = [[0, 1, 2, 3], [1, 2, 3, 4]]
+    >>> B = tet_gradient_root(V, T)
+    >>> B.shape, bool(abs(B.T @ B - tet_laplacian(V, T)).max() < 1e-12)
+    ((6, 5), True)
+    """
+    V, T = as_tets(V, T, allow_unreferenced=True)
+    scale = bbox_diagonal(V)
+    P = (V - V.mean(axis=0)) / scale
+    a = P[T[:, 0]]
+    e1, e2, e3 = P[T[:, 1]] - a, P[T[:, 2]] - a, P[T[:, 3]] - a
+    c = [None, np.cross(e2, e3), np.cross(e3, e1), np.cross(e1, e2)]
+    c[0] = -(c[1] + c[2] + c[3])
+    det = np.einsum("ij,ij->i", e1, c[1])  # six times the signed volume
+    # sqrt(|det| / 6) * c_k / det, times sqrt(scale) for the stiffness' units of length
+    f = np.sqrt(np.abs(det) / 6.0 * scale) / det
+    m = len(T)
+    rows = (3 * np.arange(m)[:, None] + np.arange(3)[None, :]).ravel()  # the three coordinates of tet t
+    R = np.tile(rows, 4)
+    C = np.concatenate([np.repeat(T[:, k], 3) for k in range(4)])
+    D = np.concatenate([(c[k] * f[:, None]).ravel() for k in range(4)])
+    B = sp.csr_array((D, (R, C)), shape=(3 * m, len(V)))
+    B.sum_duplicates()
+    return B
 
 
 def rows_once(S):

@@ -4,7 +4,9 @@ The surface coloured by the field with a colour bar, the samples as points, the
 partition curves as lines; several panels side by side like the paper's figures;
 three orthogonal slices through a solid. Everything renders off-screen, so it works
 on a machine with no display. :func:`render` takes several named fields and draws
-the one chosen by name.
+the one chosen by name; :func:`render_fields` draws several side by side, each on its own
+colour bar and map (:func:`manifill.viz.viewer.field_kind`): a field on viridis, its standard
+deviation ``<field>_std`` on a sequential map from 0, a mask such as ``trusted`` in two colours.
 """
 
 import ctypes.util
@@ -14,9 +16,23 @@ import numpy as np
 
 from ..errors import WriteError
 from ..mesh.objects import mesh_arrays
-from .viewer import choose_field, named_fields
+from ..results import TRUSTED
+from .viewer import MASK_STYLES, choose_field, field_kind, field_range, named_fields
 
-__all__ = ["render", "render_panels", "render_slices"]
+__all__ = ["render", "render_fields", "render_panels", "render_slices", "STD_CMAP"]
+
+#: the colour map of a standard deviation (light at 0, where the samples are)
+STD_CMAP = "YlGnBu"
+
+
+def _style(kind, name, values, cmap, clim):
+    """``(cmap, clim, extra add_mesh keywords, extra scalar bar keywords)`` of a field of ``kind``."""
+    if kind == "mask":
+        (l0, c0), (l1, c1) = MASK_STYLES.get(name, MASK_STYLES[None])
+        return [c0, c1], [0.0, 1.0], {"n_colors": 2, "annotations": {0.0: l0, 1.0: l1}}, {"n_labels": 0, "position_y": 0.1}
+    if kind == "std":
+        return STD_CMAP, clim if clim is not None else field_range("std", values), {}, {}
+    return cmap, clim, {}, {}
 
 
 def _pv():
@@ -43,9 +59,12 @@ def _add_surface(pl, pv, panel, clim, cmap):
     name = panel.get("name", "value")
     if values is not None:
         mesh.point_data[name] = np.asarray(values, dtype=np.float64)
+        kind = panel.get("kind", "value")
+        cmap, clim, extra, bar = _style(kind, name, values, panel.get("cmap", cmap), panel.get("clim", clim))
         pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, smooth_shading=True, nan_color="lightgrey",
                     scalar_bar_args={"title": name, "vertical": False, "n_labels": 5, "fmt": "%.3g",
-                                     "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08})
+                                     "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
+                    **extra)
     else:
         pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
     curves = panel.get("curves")
@@ -85,7 +104,9 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         Each with ``V`` (n, 3), ``F`` (m, 3) and optionally ``values`` (n,),
         ``samples`` (k,) vertex indices, ``curves`` (list of vertex paths),
         ``colour_curves`` (draw the curves thick and coloured by ``values``),
-        ``title`` and ``name`` (of the field, for the colour bar).
+        ``title``, ``name`` (of the field, for the colour bar), ``kind`` (``'value'``,
+        ``'std'`` or ``'mask'``: the colour map, :func:`manifill.viz.viewer.field_kind`),
+        ``cmap`` and ``clim`` (this panel's own map and range).
     path : str or Path
         The PNG to write.
     size : (int, int), optional
@@ -93,7 +114,7 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
     cmap : str, optional
         A matplotlib colour map name.
     same_scale : bool, optional
-        One colour range for all panels (to compare them).
+        One colour range for all panels of kind ``'value'`` without a ``clim`` (to compare them).
     view : tuple of 3 floats, optional
         Direction the camera looks from (default: pyvista's isometric view).
     viewup : tuple of 3 floats, optional
@@ -109,7 +130,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
     pv = _pv()
     clim = None
     if same_scale:
-        finite = [np.asarray(p["values"])[np.isfinite(p["values"])] for p in panels if p.get("values") is not None]
+        finite = [np.asarray(p["values"])[np.isfinite(p["values"])] for p in panels
+                  if p.get("values") is not None and p.get("kind", "value") == "value" and "clim" not in p]
         finite = [f for f in finite if f.size]
         if finite:
             clim = [float(min(f.min() for f in finite)), float(max(f.max() for f in finite))]
@@ -169,7 +191,61 @@ def render(V, F, values, path, *, samples=None, curves=None, title=None, name="v
     chosen = choose_field(fields, field)
     x = None if chosen is None else fields[chosen]
     render_panels([dict(V=V, F=F, values=x, samples=samples, curves=curves, title=title,
-                        name=name if chosen is None else chosen)], path, size=size, cmap=cmap, view=view, viewup=viewup)
+                        name=name if chosen is None else chosen,
+                        kind="value" if chosen is None else field_kind(chosen, x))],
+                  path, size=size, cmap=cmap, view=view, viewup=viewup)
+
+
+def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, title=None, size=None,
+                  cmap="viridis", view=None, viewup=None):
+    """Render several fields of one surface side by side, each with its own colour bar and map.
+
+    Parameters
+    ----------
+    V : (n, 3) numpy array
+    F : (m, 3) numpy array of int
+    fields : dict of str to (n,) array_like
+        The fields by name (e.g. :meth:`manifill.Reconstruction.point_data`).
+    path : str or Path
+    show : list of str, optional
+        The fields to draw, one panel each, in order. Default: the first field, then
+        its standard deviation ``<first>_std`` and ``trusted`` where ``fields`` holds them.
+    samples, curves, title
+        As :func:`render`; the panels are titled ``title: name`` (or ``name``).
+    size : (int, int), optional
+        Default: 600 by 550 pixels a panel (one panel: 900 by 700, as :func:`render`).
+    cmap, view, viewup
+        See :func:`render_panels` (``cmap`` colours the fields of kind ``'value'``).
+
+    Raises
+    ------
+    OptionError
+        If ``show`` names a field ``fields`` does not hold (the message lists them).
+    WriteError, ImportError
+        As :func:`render`.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from manifill.mesh.shapes import icosphere
+    >>> from manifill import reconstruct
+    >>> V, F = icosphere(2)
+    >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0], method="gp", trust=1.0)
+    >>> render_fields(V, F, r.point_data(), os.path.join(tempfile.mkdtemp(), "std.png"))  # doctest: +SKIP
+    """
+    V, F = mesh_arrays(V, F)
+    fields = named_fields(fields, len(V))
+    if show is None:
+        first = choose_field(fields, None)
+        show = [first] + [k for k in (f"{first}_std", TRUSTED) if k in fields]
+    panels = []
+    for key in show:
+        key = choose_field(fields, key)
+        panels.append(dict(V=V, F=F, values=fields[key], samples=samples, curves=curves, name=key,
+                           kind=field_kind(key, fields[key]), title=f"{title}: {key}" if title else key))
+    size = size or ((900, 700) if len(panels) == 1 else (600 * len(panels), 550))  # one panel: as render's
+    render_panels(panels, path, size=size, cmap=cmap, same_scale=False, view=view,
+                  viewup=viewup)
 
 
 def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 450), cmap="viridis"):
@@ -181,20 +257,25 @@ def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 45
         NaN outside the solid.
     spacing, origin : (3,) array_like
     path : str or Path
+    name : str, optional
+        The field's name: a ``<field>_std`` is drawn on a sequential map from 0, a mask
+        (``trusted``) in two colours (:func:`manifill.viz.viewer.field_kind`).
     """
     pv = _pv()
     grid = pv.ImageData(dimensions=values.shape, spacing=tuple(map(float, spacing)), origin=tuple(map(float, origin)))
     grid.point_data[name] = np.asarray(values, dtype=np.float64).ravel(order="F")
     finite = values[np.isfinite(values)]
     clim = [float(finite.min()), float(finite.max())] if finite.size else None
+    kind = field_kind(name, values)  # a std from 0 on its own map, a mask in two colours
+    cmap, shown, extra, bar = _style(kind, name, values, cmap, clim if kind == "value" else None)
     pl = pv.Plotter(off_screen=True, shape=(1, 3), window_size=list(size), border=False)
     for j, (normal, label) in enumerate((("x", "x"), ("y", "y"), ("z", "z"))):
         pl.subplot(0, j)
         sl = grid.slice(normal=normal)
         sl = sl.threshold(value=clim, scalars=name) if clim else sl
-        pl.add_mesh(sl, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0,
+        pl.add_mesh(sl, scalars=name, cmap=cmap, clim=shown, nan_opacity=0.0,
                     scalar_bar_args={"title": name, "vertical": False, "fmt": "%.3g", "position_x": 0.15,
-                                     "position_y": 0.04, "width": 0.7, "height": 0.08})
+                                     "position_y": 0.04, "width": 0.7, "height": 0.08, **bar}, **extra)
         pl.add_text(f"slice across {label}", font_size=10, position="upper_edge")
         pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal],
                        viewup=(0, 1, 0) if normal == "z" else (0, 0, 1))

@@ -19,11 +19,57 @@ import numpy as np
 
 from ..errors import OptionError, ReadError, WriteError
 from ..io.files import atomic_path
+from ..results import BOUNDARY_MASK, CURVE_MASK, SAMPLE_MASK, TRUSTED
 from ..validate import as_mesh
 
-__all__ = ["write_html", "embedded_arrays", "named_fields", "choose_field"]
+__all__ = ["write_html", "embedded_arrays", "named_fields", "choose_field", "field_kind", "field_range",
+           "MASK_STYLES", "STD_SUFFIX"]
 
 _TEMPLATE = Path(__file__).with_name("viewer.html")
+
+#: the suffix of a field's standard deviation (``value`` -> ``value_std``), as results write it
+STD_SUFFIX = "_std"
+#: two-colour masks: name -> ((label of 0, colour of 0), (label of 1, colour of 1)); other 0/1 masks get ``None``'s
+MASK_STYLES = {
+    TRUSTED: (("untrusted", "#d95f02"), ("trusted", "#c6dbef")),
+    None: (("0", "#d9d9d9"), ("1", "#d95f02")),
+}
+_MASKS = (SAMPLE_MASK, CURVE_MASK, BOUNDARY_MASK, TRUSTED)
+
+
+def field_kind(name, values):
+    """How a field is coloured: ``'mask'`` (two colours), ``'std'`` (sequential from 0) or ``'value'``.
+
+    A mask is one of manifill's mask names (``trusted``, ``sample_mask``, ...) holding only 0 and 1;
+    a std is a ``<field>_std`` without negative values.
+
+    Examples
+    --------
+    >>> field_kind("trusted", [0, 1, 1]), field_kind("value_std", [0.0, 0.2]), field_kind("t_std", [-1.0])
+    ('mask', 'std', 'value')
+    """
+    x = np.asarray(values, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    if str(name) in _MASKS and np.isin(x, (0.0, 1.0)).all():
+        return "mask"
+    if str(name).endswith(STD_SUFFIX) and (x >= 0).all():
+        return "std"
+    return "value"
+
+
+def field_range(kind, values):
+    """The colour range of a field: its finite values' (``[0, max]`` for a std, ``[0, 1]`` for a mask)."""
+    x = np.asarray(values, dtype=np.float64)
+    finite = x[np.isfinite(x)]
+    if kind == "mask":
+        return [0.0, 1.0]
+    if not finite.size:
+        return [0.0, 1.0]
+    lo, hi = float(finite.min()), float(finite.max())
+    if kind == "std":
+        lo = 0.0
+        hi = hi if hi > 0 else 1.0
+    return [lo, hi]
 
 
 def _b64(a, dtype):
@@ -128,7 +174,9 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
     F : (m, 3) array_like of int
     values : (n,) or (n, p) array_like, or dict of str to (n,) array_like, optional
         The field(s); NaN shows grey. A dict keeps its order. With several fields the
-        page lists them by name to switch between, each with its own colour range.
+        page lists them by name to switch between, each with its own colour range and
+        map (:func:`field_kind`): a standard deviation ``<field>_std`` on a sequential map
+        from 0, a mask such as ``trusted`` in two colours, any other field on viridis.
     samples : (k,) array_like of int, optional
         Sample vertices, drawn as points.
     curves : list of (l,) int arrays, optional
@@ -185,9 +233,11 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
     samples = np.asarray([] if samples is None else samples, dtype=np.int64)
     table = []
     for key, x in fields.items():
-        finite = x[np.isfinite(x)]
-        table.append({"name": key, "values": _b64(x, np.float32),
-                      "range": [float(finite.min()), float(finite.max())] if finite.size else [0.0, 1.0]})
+        kind = field_kind(key, x)
+        entry = {"name": key, "values": _b64(x, np.float32), "kind": kind, "range": field_range(kind, x)}
+        if kind == "mask":
+            entry["classes"] = [list(c) for c in MASK_STYLES.get(key, MASK_STYLES[None])]
+        table.append(entry)
     data = {
         "positions": _b64(V, np.float32), "faces": _b64(F, np.uint32), "samples": _b64(samples, np.uint32),
         "segments": _b64(seg, np.uint32), "fields": table, "field": chosen, "title": str(title),
@@ -211,8 +261,8 @@ def embedded_arrays(path):
     dict
         ``positions`` (n, 3) float32, ``faces`` (m, 3) uint32, ``samples`` (k,) uint32,
         ``segments`` (s, 2) uint32, ``fields`` (dict of str to (n,) float32 arrays, in
-        the page's order), ``field`` (the name of the field shown first) and ``values``
-        (that field's (n,) array).
+        the page's order), ``kinds`` (dict of str to the colouring, :func:`field_kind`),
+        ``field`` (the name of the field shown first) and ``values`` (that field's (n,) array).
 
     Raises
     ------
@@ -232,10 +282,13 @@ def embedded_arrays(path):
         if "fields" in data:
             table = [(f["name"], f["values"]) for f in data["fields"]]
             first = table[data["field"]][0]
+            kinds = {str(f["name"]): f.get("kind", "value") for f in data["fields"]}
         else:  # a page with one field, as written before several fields
             table = [(data["name"], data["values"])]
             first = data["name"]
+            kinds = {str(first): "value"}
         out["fields"] = {str(k): np.frombuffer(base64.b64decode(v, validate=True), dtype="<f4") for k, v in table}
+        out["kinds"] = kinds
     except OSError as exc:
         raise ReadError(f"{path.name}: cannot be read ({exc.strerror or exc}); check the path") from None
     except (ValueError, KeyError, IndexError, TypeError, binascii.Error, UnicodeDecodeError) as exc:

@@ -1,0 +1,279 @@
+"""``method='gp'`` in a solid: the Matérn field over the whole tets or voxels, with a std everywhere.
+
+The field of the SPDE ``(kappa^2 - Delta)^(alpha/2) u = W`` is built on the solid itself
+(:class:`manifill.linalg.spde.MaternShape` in dimension 3) and conditioned on samples
+anywhere in it (:func:`manifill.linalg.gp.gp_condition`), as :func:`manifill.surface.gp.reconstruct_gp`
+does on a surface; there is no surface pass and no harmonic fill.
+
+- :func:`gp_tets`: the P1 finite elements of a tetrahedral mesh: the cotan stiffness
+  :func:`~manifill.solid.tets.tet_laplacian`, the lumped mass
+  :func:`~manifill.solid.tets.tet_mass_matrix` and the gradient root
+  :func:`~manifill.solid.tets.tet_gradient_root`.
+- :func:`gp_voxels`: the voxel Laplacian (:func:`~manifill.solid.voxels.voxel_laplacian`,
+  ``-Delta`` in units of ``1 / length^2``) times the voxel volume, i.e. the stiffness in
+  physical units (``h`` per face on a cubic grid of side ``h``), the mass the voxel volume
+  per voxel, the root one row per neighbour pair (:func:`~manifill.mesh.roots.edge_root`).
+  Scaling the spacing and the range by ``s`` leaves the values and the std as they are.
+- :func:`volume_gp`: ``reconstruct_volume(V, F, ..., method='gp')``: the solid voxelised or
+  tetrahedralised, the surface samples put on its nodes.
+- :func:`split_gp_options`: the gp options of the ``reconstruct_volume`` functions, refused with other methods.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError
+from ..linalg.gp import as_gp_options, gp_condition
+from ..linalg.spde import MaternShape
+from ..mesh.roots import edge_root
+from ..results import field_names
+from ..surface.gp import check_uncertainty, trust_mask
+from ..validate import as_mask, as_origin, as_samples, as_spacing, as_tets, as_voxels
+from .boundary import boundary_voxels
+from .tets import tet_gradient_root, tet_laplacian, tet_mass_matrix
+from .voxels import as_connectivity, stencil_weights, voxel_laplacian
+
+__all__ = ["GP_SOLVERS", "GP_KEYS", "tet_shape", "voxel_shape", "gp_tets", "gp_voxels", "volume_gp",
+           "split_gp_options", "finish", "std_point_data"]
+
+#: The linear solvers of the solid's gp (multigrid and the iteration have no conditional variance here).
+GP_SOLVERS = ("auto", "direct", "amg")
+
+
+def tet_shape(V, T, alpha=2):
+    """The :class:`~manifill.linalg.spde.MaternShape` of a validated tetrahedral mesh ``(V, T)``."""
+    return MaternShape(tet_laplacian(V, T), tet_mass_matrix(V, T).diagonal(), tet_gradient_root(V, T), alpha, 3)
+
+
+def voxel_shape(mask, spacing=(1.0, 1.0, 1.0), connectivity=6, alpha=2):
+    """The :class:`~manifill.linalg.spde.MaternShape` of the voxels of ``mask`` (C order, physical units).
+
+    The voxel Laplacian approximates ``-c Delta`` with ``c = sum_d w_d p_d0^2`` over one of
+    each pair of neighbour offsets (1 for 6 neighbours, larger for 18 and 26); divided by
+    ``c`` and multiplied by the voxel volume it is the stiffness, the volume the mass.
+
+    Examples
+    --------
+    >>> s = voxel_shape(np.ones((2, 2, 2), dtype=bool), spacing=(2.0, 2.0, 2.0))
+    >>> float(s.G[0, 1]), float(s.c[0])  # h per face, h^3 per voxel
+    (-2.0, 8.0)
+    """
+    h = as_spacing(spacing)
+    D, w = stencil_weights(h, connectivity)
+    c = float(np.sum(w * (D[:, 0] * h[0]) ** 2))
+    vol = float(np.prod(h))
+    G = sp.csr_array(voxel_laplacian(mask, h, connectivity) * (vol / c))
+    return MaternShape(G, np.full(G.shape[0], vol), edge_root(G), alpha, 3)
+
+
+def _check_solver(solver, name="solver"):
+    if solver not in GP_SOLVERS:
+        raise OptionError(f"method='gp' in a solid solves with {', '.join(GP_SOLVERS)}, not {name}={solver!r}; "
+                          f"pass one of those")
+
+
+def _posterior(shape, idx, Y, gp, trust, untrusted, solver, length, diameter):
+    """``(X, std, trusted or None, report)`` of the gp conditioned on ``Y`` at the nodes ``idx``."""
+    opts = as_gp_options(gp)
+    check_uncertainty("gp", True, trust, untrusted, None)
+    _check_solver(solver)
+    X, std, report = gp_condition(shape, idx, None, Y, opts, length=length, diameter=diameter, solver=solver)
+    trusted = None
+    if trust is not None:
+        X, trusted, threshold = trust_mask(X, std, Y, trust, untrusted)
+        report["trust"] = {"trust": float(trust), "threshold": threshold, "untrusted": untrusted,
+                           "trusted_fraction": float(trusted.mean())}
+    return X, std, trusted, {"gp": report, "samples": int(idx.size)}
+
+
+def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="auto"):
+    """``method='gp'`` on a tetrahedral mesh: the posterior mean and std at every vertex.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+    T : (m, 4) array_like of int
+        Tetrahedra of nonzero volume; every vertex used.
+    idx : (k,) array_like of int
+        Sample vertices, anywhere in the solid (boundary or inside).
+    vals : (k,) or (k, p) array_like of float
+    gp : None, dict or GPOptions, optional
+        As ``reconstruct(..., method='gp', gp=...)``; ``alpha=2`` is Matérn ``nu = 1/2`` in a solid.
+    trust : float, optional
+        Mark (``trusted``) where the std exceeds ``trust`` times the samples' std.
+    untrusted : {'mask', 'nan'}, optional
+    solver : {'auto', 'direct', 'amg'}, optional
+
+    Returns
+    -------
+    VolumeReconstruction
+        ``form='tets'``, ``std`` shaped like ``values``, ``trusted`` with ``trust``, ``report['gp']``;
+        ``surface`` is None.
+
+    Raises
+    ------
+    MeshError, SampleError, OptionError
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2], [0.4, 0.4, 0.4]])
+    >>> T = [[0, 1, 2, 4], [0, 1, 4, 3], [0, 4, 2, 3], [4, 1, 2, 3]]  # vertex 4 inside
+    >>> r = gp_tets(V, T, [0, 1, 4], [0.0, 1.0, 2.0], gp={"range": 1.0, "sigma": 1.0})
+    >>> bool(np.allclose(r.values[[0, 1, 4]], [0, 1, 2])), bool(r.std[4] < 1e-6 < r.std[3])
+    (True, True)
+    """
+    V, T = as_tets(V, T)
+    sidx, Y, squeeze = as_samples(idx, vals, len(V))
+    opts = as_gp_options(gp)
+    E = T[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2)
+    length = float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))
+    diameter = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    X, std, trusted, report = _posterior(tet_shape(V, T, opts.alpha), sidx, Y, opts, trust, untrusted, solver,
+                                         length, diameter)
+    report.update({"vertices": len(V), "tets": len(T), "method": "gp"})
+    if squeeze:
+        X, std = X[:, 0], std[:, 0]
+    from .reconstruct_volume import VolumeReconstruction
+
+    return VolumeReconstruction(X, "tets", None, TV=V, TT=T, report=report, samples=sidx, std=std, trusted=trusted)
+
+
+def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6, gp=None,
+              trust=None, untrusted="mask", solver="auto", duplicates="error"):
+    """``method='gp'`` on a voxel mask: the posterior mean and std at every voxel of the solid.
+
+    Parameters
+    ----------
+    mask : (n0, n1, n2) bool array_like
+    voxels : (k, 3) array_like of int
+        The sampled voxels, anywhere in the mask.
+    vals : (k,) or (k, p) array_like of float
+    spacing, origin : (3,) array_like of float, optional
+    connectivity : {6, 18, 26}, optional
+        The stencil of the stiffness.
+    gp, trust, untrusted, solver
+        As :func:`gp_tets`.
+    duplicates : {'error', 'mean'}, optional
+        A voxel sampled twice with different values.
+
+    Returns
+    -------
+    VolumeReconstruction
+        ``form='voxels'``: ``values`` and ``std`` shaped like ``mask`` (plus a field axis),
+        NaN outside; ``trusted`` False outside; ``fixed`` the boundary voxels.
+
+    Examples
+    --------
+    >>> mask = np.ones((6, 6, 6), dtype=bool)
+    >>> r = gp_voxels(mask, [[0, 0, 0], [5, 5, 5], [2, 3, 2]], [0.0, 1.0, 5.0], gp={"range": 3.0})
+    >>> round(float(r.values[2, 3, 2]), 9), r.std.shape
+    (5.0, (6, 6, 6))
+    """
+    mask = as_mask(mask)
+    h = as_spacing(spacing)
+    connectivity = as_connectivity(connectivity)
+    vox = as_voxels(voxels, mask.shape, mask=mask, unique=False)
+    ids = np.full(mask.shape, -1, dtype=np.int64)
+    ids[mask] = np.arange(int(mask.sum()))
+    sidx, Y, squeeze = as_samples(ids[tuple(vox.T)], vals, int(mask.sum()), duplicates=duplicates)
+    opts = as_gp_options(gp)
+    extent = (np.argwhere(mask).max(axis=0) - np.argwhere(mask).min(axis=0)) * h
+    X, std, trusted, report = _posterior(voxel_shape(mask, h, connectivity, opts.alpha), sidx, Y, opts, trust,
+                                         untrusted, solver, float(np.median(h)), float(np.linalg.norm(extent)))
+    report.update({"shape": list(mask.shape), "method": "gp"})
+    p = X.shape[1]
+    values = np.full(mask.shape + (p,), np.nan)
+    sd = np.full(mask.shape + (p,), np.nan)
+    values[mask], sd[mask] = X, std
+    if squeeze:
+        values, sd = values[..., 0], sd[..., 0]
+    ok = None
+    if trusted is not None:
+        ok = np.zeros(mask.shape, dtype=bool)
+        ok[mask] = trusted
+    from .reconstruct_volume import VolumeReconstruction
+
+    return VolumeReconstruction(values, "voxels", None, mask=mask, spacing=h, origin=as_origin(origin),
+                                fixed=boundary_voxels(mask, connectivity), report=report,
+                                samples=np.argwhere(mask)[sidx], std=sd, trusted=ok)
+
+
+#: The options of the gp in a solid, taken out of the surface options of the ``reconstruct_volume`` functions.
+GP_KEYS = ("gp", "uncertainty", "trust", "untrusted")
+
+
+def split_gp_options(method, options):
+    """The gp options popped from ``options`` (checked), refused with a method other than ``'gp'``.
+
+    Examples
+    --------
+    >>> opts = {"method": "gp", "trust": 2.0, "partition": "delaunay"}
+    >>> split_gp_options("gp", opts), opts
+    ({'trust': 2.0}, {'method': 'gp', 'partition': 'delaunay'})
+    >>> split_gp_options("harmonic", {"uncertainty": True})
+    Traceback (most recent call last):
+    ...
+    manifill.errors.OptionError: uncertainty=True in a solid needs method='gp' (the harmonic fill of the inside \
+has no probability model); pass method='gp' or leave it out
+    """
+    gpo = {k: options.pop(k) for k in GP_KEYS if k in options}
+    if method == "gp":
+        check_uncertainty("gp", gpo.get("uncertainty"), gpo.get("trust"), gpo.get("untrusted", "mask"), None)
+        return gpo
+    for name, value in gpo.items():
+        if not (value is None or value is False or (name == "untrusted" and value == "mask")):
+            raise OptionError(f"{name}={value!r} in a solid needs method='gp' (the harmonic fill of the inside has "
+                              f"no probability model); pass method='gp' or leave it out")
+    return gpo
+
+
+def finish(r, gpo):
+    """``r`` without its std when ``uncertainty=False`` was asked."""
+    if gpo.get("uncertainty") is False:
+        r.std = None
+    return r
+
+
+def volume_gp(V, F, idx, vals, gpo, *, form, resolution, connectivity, max_volume, allow_open, fill_solver,
+              duplicates="error"):
+    """``reconstruct_volume(V, F, ..., method='gp')``: the gp over the voxelised or tetrahedralised solid.
+
+    Tets: TetGen keeps the surface's vertices first, so the sample vertices are nodes of
+    the solid. Voxels: each sample goes to the nearest boundary voxel (samples that meet
+    in one voxel are averaged; ``report['merged']`` counts them, ``report['snap_max']`` is
+    the largest distance moved, in voxels). ``fill_solver`` is the gp's solver.
+    """
+    from scipy.spatial import cKDTree
+
+    from .tetrahedralize import tetrahedralize
+    from .voxels import voxel_centres
+    from .voxelize import voxelize
+
+    kw = {"gp": gpo.get("gp"), "trust": gpo.get("trust"), "untrusted": gpo.get("untrusted", "mask"),
+          "solver": fill_solver}
+    _check_solver(fill_solver, "fill_solver")
+    sidx, Y, squeeze = as_samples(idx, vals, len(V), duplicates=duplicates)
+    Y = Y[:, 0] if squeeze else Y
+    if form == "tets":
+        TV, TT = tetrahedralize(V, F, max_volume=max_volume)
+        return finish(gp_tets(TV, TT, sidx, Y, **kw), gpo)
+    mask, spacing, origin = voxelize(V, F, resolution, allow_open=allow_open)
+    fixed = boundary_voxels(mask, connectivity)
+    on = np.argwhere(fixed)
+    dist, near = cKDTree(voxel_centres(mask.shape, spacing, origin, where=fixed)).query(V[sidx])
+    r = gp_voxels(mask, on[near], Y, spacing=spacing, origin=origin, connectivity=connectivity,
+                  duplicates="mean", **kw)
+    r.report.update({"resolution": int(resolution), "merged": int(sidx.size - r.samples.shape[0]),
+                     "snap_max": float(dist.max() / spacing.min()) if dist.size else 0.0})
+    return finish(r, gpo)
+
+
+def std_point_data(data, std, names, point_ndim):
+    """``data`` (fields first, then masks) with ``<field>_std`` after the fields, when ``std`` is given."""
+    if std is None:
+        return data
+    S = std if std.ndim == point_ndim + 1 else std[..., None]
+    keys = field_names(names, S.shape[-1])
+    out = {key: data.pop(key) for key in keys}
+    out.update({f"{key}_std": S[..., j] for j, key in enumerate(keys)})
+    return {**out, **data}

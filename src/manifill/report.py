@@ -86,7 +86,8 @@ def uncertainty_lines(report, std, trusted=None, point_ndim=1):
     ...        "trust": {"threshold": [0.4], "untrusted": 3, "marked": "mask"}}
     >>> for line in uncertainty_lines(rep, np.array([0.0, 0.25, 0.5]), np.array([True, True, False])):
     ...     print(line)
-    gp: Matern alpha=2 (nu=1), range 0.5 (fitted), sigma 1 (given), noise 0 (given); restricted log-likelihood -3.2 on 9 samples
+    gp: Matern alpha=2 (nu=1), range 0.5 (fitted), sigma 1 (given), noise 0 (given);
+    restricted log-likelihood -3.2 on 9 samples
     std: variance exact, std in [0, 0.5]
     trust: 1 of 3 vertices untrusted (std > threshold 0.4), marked in 'trusted'
     """

@@ -88,7 +88,8 @@ def test_gp_options_reach_the_library(tmp_path, capsys, mesh):
     np.testing.assert_allclose(data["t_std"], r.std, rtol=1e-10, atol=1e-12)
     assert data["t_std"][mesh["idx"]].min() > 0  # with noise the samples are uncertain too
     v = r.report["gp"]["variance"]
-    assert f"variance sampled (30 Monte Carlo samples, relative error of the std median {v['rel_se_median']:.1%}" in text
+    median = f"{v['rel_se_median']:.1%}"
+    assert f"variance sampled (30 Monte Carlo samples, relative error of the std median {median}" in text
     assert "noise 0.01 (given)" in text and "log-likelihood" not in text  # nothing fitted but the closed-form scale
 
 

@@ -28,10 +28,6 @@ def _shape(V, F, alpha):
     return MaternShape(laplacian(V, F), mass_matrix(V, F).diagonal(), gradient_root(V, F), alpha, 2)
 
 
-def _dense(A):
-    return A.toarray() if sp.issparse(A) else np.asarray(A)
-
-
 @pytest.mark.parametrize("alpha", [1, 2])
 @pytest.mark.parametrize("kappa", [0.3, 4.0])
 def test_precision_is_the_spde_formula(alpha, kappa):
@@ -103,8 +99,8 @@ def test_no_variance_for_alpha_one():
 
 
 def _sphere_variance(kappa, tau=1.0):
-    l = np.arange(0, 200_000, dtype=np.float64)
-    return float(np.sum((2 * l + 1) / (4 * math.pi * tau ** 2 * (kappa ** 2 + l * (l + 1)) ** 2)))
+    deg = np.arange(0, 200_000, dtype=np.float64)
+    return float(np.sum((2 * deg + 1) / (4 * math.pi * tau ** 2 * (kappa ** 2 + deg * (deg + 1)) ** 2)))
 
 
 def _prior_variance(V, F, kappa, at):

@@ -139,8 +139,6 @@ def test_samples_as_points_inside_faces_are_interpolated_and_kriged():
     assert np.abs(r.std - std).max() < 1e-6 * std.max()
 
 
-@pytest.mark.xfail(strict=True, reason="reconstruct.py reports gp's points as 'nearest vertex' (points_report's "
-                   "exact= is method in ENERGY_METHODS), though gp constrains the points themselves")
 def test_points_report_of_gp_says_closest_surface_point():
     rng = np.random.default_rng(4)
     faces = rng.choice(len(F2), 8, replace=False)
@@ -304,6 +302,31 @@ def test_energy_method_std_is_the_intrinsic_oracle(method):
     want[idx] = y
     want[free] = -np.linalg.solve(E[np.ix_(free, free)], E[np.ix_(free, idx)] @ y)
     assert np.abs(x - want).max() < 1e-8
+
+
+def test_harmonic_std_with_points_inside_faces_is_the_kkt_oracle():
+    # points inside faces constrain H_rows x = y: the conditional covariance of the free
+    # vertices is the free block of the inverse of the KKT matrix [[L_ff, A'], [A, 0]]
+    rng = np.random.default_rng(1)
+    faces = rng.choice(len(F2), 5, replace=False)
+    bary = rng.dirichlet(np.ones(3) * 3, size=5)
+    P = np.vstack([V2[[5, 40]], np.einsum("kj,kjd->kd", bary, V2[F2[faces]])])
+    y = rng.standard_normal(7)
+    r = manifill.reconstruct(V2, F2, P, y, method="harmonic", uncertainty=True)
+    assert np.abs(r.points.interpolate(r.values) - y).max() < 1e-10
+    L = laplacian(V2, F2).toarray()
+    free = np.setdiff1d(np.arange(N2), [5, 40])
+    A = np.zeros((5, N2))
+    for i, f in enumerate(faces):
+        A[i, F2[f]] = bary[i]
+    A = A[:, free]
+    kkt = np.block([[L[np.ix_(free, free)], A.T], [A, np.zeros((5, 5))]])
+    cov = np.linalg.inv(kkt)[:free.size, :free.size]
+    x = r.values
+    std = np.zeros(N2)
+    std[free] = np.sqrt(np.maximum(x @ L @ x / (7 - 1) * np.diagonal(cov), 0.0))
+    assert np.abs(r.std - std).max() < 1e-6 * std.max()
+    assert np.all(r.std[[5, 40]] == 0)
 
 
 # ---- trust ----------------------------------------------------------------------------------------------

@@ -30,7 +30,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import OptionError, ResourceError
+from ..errors import OptionError, ResourceError, SolveError
 from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
@@ -244,6 +244,10 @@ def _inverse_diagonal(A):
     """``diag(A^-1)`` of a dense symmetric positive definite ``A`` (Cholesky)."""
     import scipy.linalg as la
 
-    L = la.cholesky(A, lower=True)
+    try:
+        L = la.cholesky(A, lower=True)
+    except la.LinAlgError:
+        raise SolveError("the precision is not positive definite to working precision (degenerate elements?); "
+                         "clean the mesh, or pass variance='sampled'") from None
     Li = la.solve_triangular(L, np.eye(A.shape[0]), lower=True)
     return np.einsum("ij,ij->j", Li, Li)

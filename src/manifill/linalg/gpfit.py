@@ -73,14 +73,14 @@ class Likelihood:
 
 
 def bounded_search(f, lo, hi):
-    """Minimise ``f`` on ``[lo, hi]`` (log scale): a grid of 9, then Brent in the best bracket."""
-    grid = np.linspace(lo, hi, 9)
+    """Minimise ``f`` on ``[lo, hi]`` (log scale): a grid of 7, then Brent in the best bracket to 1%."""
+    grid = np.linspace(lo, hi, 7)
     vals = [f(g) for g in grid]
     i = int(np.argmin(vals))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
     if b <= a:
         return grid[i], vals[i]
-    r = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 1e-3})
+    r = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 1e-2})
     return (r.x, r.fun) if r.fun <= vals[i] else (grid[i], vals[i])
 
 

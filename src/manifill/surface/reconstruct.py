@@ -391,7 +391,7 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
         over = float(np.nanmax(np.maximum(values - hi, lo - values))) if np.isfinite(values).any() else 0.0
     report["overshoot"] = over
     if points is not None:
-        report["points"] = points_report(points, method in ENERGY_METHODS)
+        report["points"] = points_report(points, method in ENERGY_METHODS or method == "gp")
     seconds["total"] = before + time.perf_counter() - t0
     return Reconstruction(values=values, curves=curves, components=components, on_curve=fixed,
                           levels=[c.levels for c in checks], report=report, V=surface.V, F=surface.F, idx=idx,

@@ -29,7 +29,8 @@ def _style(kind, name, values, cmap, clim):
     """``(cmap, clim, extra add_mesh keywords, extra scalar bar keywords)`` of a field of ``kind``."""
     if kind == "mask":
         (l0, c0), (l1, c1) = MASK_STYLES.get(name, MASK_STYLES[None])
-        return [c0, c1], [0.0, 1.0], {"n_colors": 2, "annotations": {0.0: l0, 1.0: l1}}, {"n_labels": 0, "position_y": 0.1}
+        bar = {"n_labels": 0, "position_y": 0.1}  # room below the bar for the two labels
+        return [c0, c1], [0.0, 1.0], {"n_colors": 2, "annotations": {0.0: l0, 1.0: l1}}, bar
     if kind == "std":
         return STD_CMAP, clim if clim is not None else field_range("std", values), {}, {}
     return cmap, clim, {}, {}

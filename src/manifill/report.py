@@ -55,8 +55,9 @@ def _numbers(values, fmt=".4g"):
 def _variance_line(info):
     how = info.get("how", "?")
     if how == "sampled":
-        return (f"variance sampled ({info.get('samples', '?')} Monte Carlo samples, relative error of the std median "
-                f"{info.get('rel_se_median', float('nan')):.1%}, largest {info.get('rel_se_max', float('nan')):.1%})")
+        return (f"variance sampled ({info.get('samples', '?')} Monte Carlo samples; its relative standard error: "
+                f"median {info.get('rel_se_median', float('nan')):.1%}, largest {info.get('rel_se_max', float('nan')):.1%}; "
+                f"the std's is about half)")
     return f"variance {how}"
 
 
@@ -122,7 +123,7 @@ def uncertainty_lines(report, std, trusted=None, point_ndim=1):
     lo, hi = value_ranges(std, point_ndim)
     rng = "; ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi))
     lines.append(f"std: {_variance_line(info)}, std in {rng}")
-    tr = report.get("trust") or (gp or {}).get("trust")  # a solid's gp keeps it in its gp report
+    tr = report.get("trust")
     if tr is not None and trusted is not None:
         t = np.asarray(trusted, dtype=bool)
         t = t[np.isfinite(np.asarray(std, dtype=np.float64).reshape(t.shape + (-1,))[..., 0])] if t.ndim > 1 else t

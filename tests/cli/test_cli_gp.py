@@ -89,7 +89,7 @@ def test_gp_options_reach_the_library(tmp_path, capsys, mesh):
     assert data["t_std"][mesh["idx"]].min() > 0  # with noise the samples are uncertain too
     v = r.report["gp"]["variance"]
     median = f"{v['rel_se_median']:.1%}"
-    assert f"variance sampled (30 Monte Carlo samples, relative error of the std median {median}" in text
+    assert f"variance sampled (30 Monte Carlo samples; its relative standard error: median {median}" in text
     assert "noise 0.01 (given)" in text and "log-likelihood" not in text  # nothing fitted but the closed-form scale
 
 
@@ -144,7 +144,7 @@ BAD = {
     "trust with rbf": ["--method", "rbf", "--trust", "1"],
     "noise with harmonic": ["--method", "harmonic", "--noise", "0.1"],
     "gp-range with biharmonic": ["--method", "biharmonic", "--gp-range", "1"],
-    "variance with harmonic": ["--method", "harmonic", "--uncertainty", "--variance", "exact"],
+    "variance without uncertainty": ["--method", "harmonic", "--variance", "exact"],
     "negative range": ["--method", "gp", "--gp-range", "-1"],
     "range not a number": ["--method", "gp", "--gp-range", "far"],
     "negative noise": ["--method", "gp", "--noise", "-0.1"],
@@ -242,3 +242,16 @@ def test_volume_std_needs_gp(tmp_path, capsys, extra):
                           "--method", "harmonic", "--resolution", "8", *extra)
     assert extra[0] in assert_usage_error(code, text, err)
     assert not (tmp_path / "v.vti").exists()
+
+
+def test_variance_options_reach_an_energy_method(tmp_path, capsys, mesh):
+    """--uncertainty --variance sampled --variance-samples with harmonic: the library's gp={'variance', 'samples'}."""
+    out = tmp_path / "h.vtu"
+    code, text, err = run(capsys, "reconstruct", mesh["path"], mesh["one"], "-o", out, "--method", "harmonic",
+                          "--uncertainty", "--variance", "sampled", "--variance-samples", "20")
+    assert code == 0, err
+    r = manifill.reconstruct(mesh["V"], mesh["F"], mesh["idx"], mesh["t"], method="harmonic", uncertainty=True,
+                             gp={"variance": "sampled", "samples": 20})
+    assert r.report["uncertainty"]["variance"]["samples"] == 20
+    np.testing.assert_allclose(meshio.read(out).point_data["t_std"], r.std, rtol=1e-10, atol=1e-12)
+    assert "variance sampled (20 Monte Carlo samples" in text

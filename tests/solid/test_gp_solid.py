@@ -218,7 +218,7 @@ def test_trust_marks_and_nans():
     on = np.argwhere(boundary_voxels(mask))[::4]
     y = on[:, 1] * 1.0
     r = reconstruct_volume_mask(mask, on, y, method="gp", gp={"range": 3.0}, trust=0.3, untrusted="nan")
-    th = r.report["gp"]["trust"]["threshold"][0]
+    th = r.report["trust"]["threshold"][0]
     assert th == pytest.approx(0.3 * y.std())
     assert np.array_equal(r.trusted, mask & (np.nan_to_num(r.std, nan=np.inf) <= th))
     assert np.isnan(r.values[mask & ~r.trusted]).all() and not np.isnan(r.values[r.trusted]).any()

@@ -281,6 +281,21 @@ _GP_FLAGS = (("gp_alpha", "--gp-alpha"), ("gp_range", "--gp-range"), ("gp_sigma"
              ("variance", "--variance"), ("variance_samples", "--variance-samples"))
 
 
+def _variance_opts(args, gp):
+    """``gp`` with ``variance`` and ``samples`` from --variance and --variance-samples, checked."""
+    if args.variance is not None:
+        gp["variance"] = args.variance
+    if args.variance_samples is not None:
+        if args.variance == "exact":
+            raise OptionError("--variance-samples is the Monte Carlo count of --variance sampled (or auto), "
+                              "not of --variance exact; leave one out")
+        if args.variance_samples < 2:
+            raise OptionError(f"--variance-samples {args.variance_samples} is below 2; pass e.g. "
+                              f"--variance-samples 100")
+        gp["samples"] = args.variance_samples
+    return gp
+
+
 def _auto_or_number(text, flag, zero=False):
     """``X|auto`` of a gp option: 'auto' or a finite number > 0 (>= 0 with ``zero``)."""
     if text == "auto":
@@ -322,6 +337,9 @@ def uncertainty_opts(args, methods=STD_METHODS):
     method = args.method
     named = method or "the default method (gvf-harmonic)"
     given = [flag for key, flag in _GP_FLAGS if getattr(args, key, None) is not None]
+    energy_std = method in STD_METHODS[1:] and method in methods and (args.uncertainty or args.trust is not None)
+    if energy_std:  # an energy method's std: how its variance is computed may be given
+        given = [flag for flag in given if flag not in ("--variance", "--variance-samples")]
     if given and method != "gp":
         hint = " (the energy methods take noisy samples with --smoothing)" if given[0] == "--noise" else ""
         raise OptionError(f"{given[0]} is an option of --method gp, not of {named}; pass --method gp or leave "
@@ -356,6 +374,8 @@ def uncertainty_opts(args, methods=STD_METHODS):
         raise OptionError(f"--trust {args.trust:g} is not a number > 0 (a multiple of the samples' standard "
                           f"deviation); pass e.g. --trust 1")
     out = {}
+    if energy_std and (args.variance is not None or args.variance_samples is not None):
+        out["gp"] = _variance_opts(args, {})
     if method == "gp":
         gp = {}
         for key, flag, name, zero in (("gp_range", "--gp-range", "range", False),
@@ -367,17 +387,7 @@ def uncertainty_opts(args, methods=STD_METHODS):
         if args.gp_alpha == 1 and not isinstance(gp.get("sigma", "auto"), str):
             raise OptionError("--gp-sigma needs --gp-alpha 2: the field of alpha 1 has no finite prior standard "
                               "deviation; leave --gp-sigma out")
-        if args.variance is not None:
-            gp["variance"] = args.variance
-        if args.variance_samples is not None:
-            if args.variance == "exact":
-                raise OptionError("--variance-samples is the Monte Carlo count of --variance sampled (or auto), "
-                                  "not of --variance exact; leave one out")
-            if args.variance_samples < 2:
-                raise OptionError(f"--variance-samples {args.variance_samples} is below 2; pass e.g. "
-                                  f"--variance-samples 100")
-            gp["samples"] = args.variance_samples
-        out["gp"] = gp or None
+        out["gp"] = _variance_opts(args, gp) or None
     if args.uncertainty:
         out["uncertainty"] = True
     if args.trust is not None:

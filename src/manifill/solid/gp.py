@@ -81,9 +81,10 @@ def _posterior(shape, idx, Y, gp, trust, untrusted, solver, length, diameter):
     trusted = None
     if trust is not None:
         X, trusted, threshold = trust_mask(X, std, Y, trust, untrusted)
-        report["trust"] = {"trust": float(trust), "threshold": threshold, "untrusted": untrusted,
-                           "trusted_fraction": float(trusted.mean())}
-    return X, std, trusted, {"gp": report, "samples": int(idx.size)}
+    out = {"gp": report, "samples": int(idx.size)}
+    if trust is not None:  # as on surfaces: the threshold per field, the count untrusted, what was done there
+        out["trust"] = {"threshold": threshold, "untrusted": int((~trusted).sum()), "marked": untrusted}
+    return X, std, trusted, out
 
 
 def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="auto"):

@@ -23,7 +23,10 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError
 
-__all__ = ["UNTRUSTED", "reconstruct_gp", "energy_uncertainty", "trust_mask", "check_uncertainty"]
+__all__ = ["UNTRUSTED", "reconstruct_gp", "energy_uncertainty", "trust_mask", "check_uncertainty", "check_gp_for"]
+
+#: The ``gp=`` options an energy method's ``uncertainty=True`` takes (how its variance is computed).
+VARIANCE_OPTIONS = ("variance", "samples", "seed")
 
 #: What ``untrusted=`` does where the std exceeds the threshold: keep the value (the mask says), or NaN.
 UNTRUSTED = ("mask", "nan")
@@ -54,6 +57,26 @@ def check_uncertainty(method, uncertainty, trust, untrusted, bounds):
             raise OptionError(f"trust={trust!r} is not a number > 0 (a multiple of the samples' standard "
                               f"deviation); pass one")
     return bool(uncertainty)
+
+
+def check_gp_for(method, gp, uncertainty):
+    """``gp=`` is method='gp''s; for an energy method with ``uncertainty`` only :data:`VARIANCE_OPTIONS` apply."""
+    from ..linalg.gp import GPOptions, as_gp_options
+    from .energy_fill import ENERGY_METHODS
+
+    if gp is None or method == "gp":
+        return
+    if method in ENERGY_METHODS and uncertainty:
+        given = [f for f in (gp if isinstance(gp, dict) else
+                             {f: getattr(gp, f) for f in GPOptions.__dataclass_fields__
+                              if getattr(gp, f) != getattr(GPOptions(), f)})]
+        extra = [f for f in given if f not in VARIANCE_OPTIONS]
+        if not extra:
+            as_gp_options(gp)
+            return
+        raise OptionError(f"gp option {extra[0]!r} is method='gp''s; with uncertainty, method={method!r} takes only "
+                          f"{', '.join(VARIANCE_OPTIONS)} in gp=; leave it out")
+    raise OptionError(f"gp= holds method='gp''s options, not method={method!r}'s; pass method='gp' or leave gp out")
 
 
 def trust_mask(values, std, sample_vals, trust, untrusted="mask"):

@@ -35,7 +35,8 @@ from .partition import partition as _partition
 from .points import is_positions, point_samples, points_report
 from .samples import weights_by_vertex
 from .methods import DEFAULT, METHODS, STEPS, check_options, resolve_default
-from .gp import check_uncertainty, energy_uncertainty, reconstruct_gp, trust_mask
+from ..linalg.gp import as_gp_options
+from .gp import check_gp_for, check_uncertainty, energy_uncertainty, reconstruct_gp, trust_mask
 from .reconstruction import Reconstruction
 from .surface import Surface
 
@@ -135,6 +136,8 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
         ``method='gp'``'s options (:class:`manifill.GPOptions`: alpha, range, sigma,
         noise, mean, share, variance, samples, seed, fit_samples); ``report['gp']``
         gives the hyperparameters, the likelihood and how the variance was computed.
+        With ``uncertainty`` for an energy method, only ``variance``, ``samples`` and
+        ``seed`` apply.
     uncertainty : None or bool, optional
         Compute :attr:`Reconstruction.std`. None: True for ``method='gp'`` (or with
         ``trust``). For harmonic, biharmonic and triharmonic: the std of the intrinsic
@@ -173,9 +176,7 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
     method, curve_values, bounds = resolve_default(method, curve_values, bounds)
     check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
     uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if default else bounds)
-    if gp is not None and method != "gp":
-        raise OptionError(f"gp= holds method='gp''s options, not method={method!r}'s; pass method='gp' or leave "
-                          f"gp out")
+    check_gp_for(method, gp, uncertainty)
     V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
     n = len(V)
     points, raw, vals_in = None, idx, vals
@@ -272,6 +273,7 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
     method, curve_values, bounds = resolve_default(method, curve_values, bounds)
     check_options(method, partition, weights, "length", curve_values, solver, on_empty, iteration, init)
     uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if default else bounds)
+    check_gp_for(method, gp, uncertainty)
     if method == "rbf":  # the thin-plate spline in space (manifill.surface.rbf)
         from .rbf import reconstruct_rbf
 
@@ -377,9 +379,11 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
     if uncertainty and method != "gp":  # the energy method read as an intrinsic Gaussian field
         tick(progress, "uncertainty")
         t = time.perf_counter()
+        o = as_gp_options(gp)
         std, report["uncertainty"] = energy_uncertainty(
             surface, ENERGY_METHODS[method], weights, idx, vals, points, values, report.get("harmonic", {}),
-            sample_weights=sample_weights, solver="direct" if solver == "iterate" else solver)
+            sample_weights=sample_weights, solver="direct" if solver == "iterate" else solver,
+            variance=o.variance, samples=o.samples, seed=o.seed)
         seconds["uncertainty"] = time.perf_counter() - t
     trusted = None
     if trust is not None:

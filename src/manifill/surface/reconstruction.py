@@ -4,6 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import SampleError
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, field_names
 
 __all__ = ["Reconstruction"]
@@ -104,6 +105,10 @@ class Reconstruction(Result):
             return data
         S = self.std if self.std.ndim == 2 else self.std[:, None]
         keys = field_names(names, S.shape[1])
+        clash = [f"{key}_std" for key in keys if f"{key}_std" in keys]
+        if clash:
+            raise SampleError(f"the field name {clash[0]!r} is taken by the standard deviation of another field; "
+                              f"rename that field")
         out = {key: data.pop(key) for key in keys}
         out.update({f"{key}_std": S[:, j] for j, key in enumerate(keys)})
         return {**out, **data}

@@ -10,7 +10,9 @@ For each level (7: 163,842 vertices; 8: 655,362), ``k`` random samples of a smoo
 - ``manifill.reconstruct(..., method='gp', gp={'range': R, 'sigma': S, 'noise': 0})``:
   hyperparameters given (R, S: those the fitted run finds when it ran first, else
   ``--range`` and the samples' standard deviation), mean and std;
-- ``manifill.reconstruct(..., method='gp')``: defaults, hyperparameters fitted.
+- ``manifill.reconstruct(..., method='gp')``: defaults, hyperparameters fitted;
+- ``--order`` entries ending in ``-direct`` (or ``-amg``) run the same with that ``solver=``
+  (default: ``given-direct`` too, the posterior with the precision factorised).
 
 Reported: seconds, the ratio to the harmonic fill (target <= 10), and the breakdowns
 ``report['gp']['seconds']`` (fit, posterior) and ``report['seconds']``, with the variance's
@@ -56,24 +58,24 @@ def one_level(level, k, order, rho, log):
     harm("harmonic_first")
     hyper = {"range": rho, "sigma": float(np.std(vals)), "noise": 0}
     for what in order:
+        base, _, solver = what.partition("-")
+        solver = solver or "auto"
         t0 = time.perf_counter()
-        if what == "fitted":
-            r = manifill.reconstruct(V, F, idx, vals, method="gp")
-            out["fitted"] = _gp_row(r, time.perf_counter() - t0)
-            hyper = {"range": out["fitted"]["range"], "sigma": out["fitted"]["sigma"], "noise": 0}
+        if base == "fitted":
+            r = manifill.reconstruct(V, F, idx, vals, method="gp", solver=solver)
+            out[what] = _gp_row(r, time.perf_counter() - t0)
+            hyper = {"range": out[what]["range"], "sigma": out[what]["sigma"], "noise": 0}
         else:
-            r = manifill.reconstruct(V, F, idx, vals, method="gp", gp=hyper)
-            out["given"] = {**_gp_row(r, time.perf_counter() - t0), "gp": dict(hyper)}
+            r = manifill.reconstruct(V, F, idx, vals, method="gp", gp=hyper, solver=solver)
+            out[what] = {**_gp_row(r, time.perf_counter() - t0), "gp": dict(hyper)}
         log(f"    gp {what}: {out[what]['seconds']:.1f} s; gp seconds {out[what]['gp_seconds']}; "
             f"variance {out[what]['variance']}")
         yield out
     harm("harmonic_last")
     out["harmonic"] = min(out["harmonic_first"], out["harmonic_last"])
-    for what in ("fitted", "given"):
-        if what in out:
-            out[what]["ratio_to_harmonic"] = out[what]["seconds"] / out["harmonic"]
-    log(f"    ratios to harmonic: " + ", ".join(f"{w} {out[w]['ratio_to_harmonic']:.1f}x" for w in ("fitted", "given")
-                                             if w in out))
+    for what in order:
+        out[what]["ratio_to_harmonic"] = out[what]["seconds"] / out["harmonic"]
+    log("    ratios to harmonic: " + ", ".join(f"{w} {out[w]['ratio_to_harmonic']:.1f}x" for w in order))
     yield out
 
 
@@ -82,7 +84,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench.gp_speed", description=__doc__.splitlines()[0])
     ap.add_argument("--levels", default="7,8")
     ap.add_argument("--k", type=int, default=1000)
-    ap.add_argument("--order", default="fitted,given", help="which gp runs, in order (fitted, given)")
+    ap.add_argument("--order", default="fitted,given,given-direct",
+                    help="the gp runs, in order: fitted or given, '-direct' / '-amg' for that solver (else 'auto')")
     ap.add_argument("--range", type=float, default=1.0, help="range of the 'given' run when it runs first")
     ap.add_argument("--save", default=None, help="JSON file, rewritten after every step")
     args = ap.parse_args(argv)

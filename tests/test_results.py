@@ -6,14 +6,15 @@ import pytest
 import manifill.io.field_names as io_names
 from conftest import icosphere
 from manifill import SampleError
-from manifill.results import BOUNDARY_MASK, CURVE_MASK, PATCH_LABEL, RESERVED_NAMES, SAMPLE_MASK, Result, field_names
+from manifill.results import (BOUNDARY_MASK, CURVE_MASK, PATCH_LABEL, RESERVED_NAMES, SAMPLE_MASK, TRUSTED, Result,
+                              field_names)
 from manifill.surface.reconstruct import Reconstruction, reconstruct
 
 
 def test_mask_names_are_one_set_shared_with_the_file_formats():
     assert (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK) == ("sample_mask", "curve_mask", "patch_label",
                                                                      "boundary_mask")
-    assert RESERVED_NAMES == (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK)
+    assert RESERVED_NAMES == (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK, TRUSTED)
     assert io_names.RESERVED_NAMES is RESERVED_NAMES and io_names.SAMPLE_MASK is SAMPLE_MASK
 
 

@@ -69,6 +69,9 @@ def data(seed, rough=False):
 # -- the method table ---------------------------------------------------------------------------------------
 #: bounds (lo, hi) of the 'pair' cases, given for values in [-3, 3] (test data stay inside).
 PAIR = (-12.0, 12.0)
+#: method='gp' with its hyperparameters given (the fitted ones have their own tests, tests/surface/test_gp.py):
+#: its mean is then linear in the data.
+GP_GIVEN = {"range": 0.8, "sigma": 1.0, "variance": "exact"}
 
 
 def case(name, *, linear=False, exact=True, bounded=False, kind=None, **kw):
@@ -90,7 +93,8 @@ SMOOTHED = ([case(f"{m}-smoothing-fixed", linear=True, exact=False, kind="fixed"
                for m in ("harmonic", "biharmonic", "triharmonic")])
 OTHER = [case("gvf", bounded=True, method="gvf"), case("rbf", linear=True, method="rbf"),
          case("rbf-smoothing-fixed", linear=True, exact=False, kind="rbf-fixed", method="rbf", smoothing=1e-2),
-         case("auto", method="auto")]
+         case("auto", method="auto"),
+         case("gp", linear=True, kind="gp-given", method="gp", gp=GP_GIVEN)]
 CASES = PIPELINE + ENERGY + BOUNDED + SMOOTHED + OTHER
 
 
@@ -217,7 +221,12 @@ def test_affine_equivariance_in_the_values(c, seed, rough, scale, shift):
 
 
 def mesh_scaled_options(c, s):
-    """A fixed lambda weighs an energy in units of length^-2(k-1) (M scales as s^2): it scales with the mesh."""
+    """A fixed lambda weighs an energy in units of length^-2(k-1) (M scales as s^2): it scales with the mesh.
+
+    A given gp range is a length: it scales with the mesh too.
+    """
+    if c["kind"] == "gp-given":
+        return dict(gp=dict(GP_GIVEN, range=GP_GIVEN["range"] * s))
     if c["kind"] != "fixed":  # (rbf: lambda is in the normalised units of rbf.py, scale-free)
         return {}
     k = {"harmonic": 1, "biharmonic": 2, "triharmonic": 3}[c["kw"]["method"]]

@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError
 from .gaussian import VARIANCES, Conditional
-from .gpfit import Likelihood, fit_range, restricted_loglik
+from .gpfit import Likelihood, fit_range, matern_correlation, restricted_loglik
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 
 __all__ = ["GPOptions", "as_gp_options", "gp_condition", "intrinsic_std"]
@@ -141,7 +141,7 @@ def _groups(keys):
     return out
 
 
-def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
+def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", positions=None):
     """Posterior mean and standard deviation of the Matérn field at every node.
 
     Parameters
@@ -156,6 +156,10 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
     length, diameter : float
         A typical edge length and the domain's diameter: the search interval of the range.
     solver : {'auto', 'direct', 'amg'}, optional
+    positions : (k + m, d) numpy array, optional
+        Where the observations are. With them, a fitted range starts from the fit of the
+        continuum Matérn correlation of straight-line distances (no solves), and the mesh's
+        likelihood is then searched within a factor 3 of it (fewer factorisations).
 
     Returns
     -------
@@ -198,6 +202,14 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
         if m > opts.fit_samples:
             sub = np.sort(np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False))
         Hs = H[sub]
+        # the fit sees each field standardised: the range it finds is then the same for a * y + b, exactly
+        known = not isinstance(opts.mean, str)
+        centre = np.full(p, float(opts.mean)) if known else Y[sub].mean(axis=0)
+        unit = Y[sub].std(axis=0)
+        unit[~(unit > 0)] = 1.0
+        Z = (Y[sub] - centre) / unit
+        fmean = 0.0 if known else "constant"
+        fnoise2 = None if noise2 is None else noise2 / unit ** 2
 
         def covariance(kap):
             return shape.covariance_at(kap, Hs, factorise(shape.K(kap).tocsc())[1])
@@ -205,23 +217,33 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
         bounds = (kappa_from_range(2.0 * diameter, alpha, d),
                   kappa_from_range(max(2.0 * length, diameter / 200.0), alpha, d))
         fits = []
+        full, bracket, points = bounds, bounds, 7
+        if positions is not None and opts.range == "auto" and v > 0 and not fixed_s2:
+            bracket, points = _near_euclidean(np.asarray(positions, dtype=np.float64)[sub], Z, bounds, v, fmean,
+                                              fnoise2, fit_noise, report)
         for cols in cols_sets:
             given_k = None if opts.range == "auto" else kappa_from_range(opts.range, alpha, d)
-            s2_given = None
-            if fixed_s2:
-                kk = given_k
-                s2_given = None if kk is None else np.full(p, s2_of_sigma(kk))
             if fixed_s2 and given_k is None:  # the scale follows kappa: fit through the absolute form
-                fit = _fit_sigma_given(covariance, Y[sub], bounds, opts, s2_of_sigma, cols, noise2, fit_noise)
+                fit = _fit_sigma_given(covariance, Z, bounds, fmean, lambda kap: s2_of_sigma(kap) / unit ** 2,
+                                       cols, fnoise2, fit_noise)
             else:
-                fit = fit_range(covariance, Y[sub][:, cols], bounds, mean=opts.mean,
-                                s2=None if s2_given is None else s2_given[cols],
-                                noise2=None if noise2 is None else noise2[cols], fit_noise=fit_noise,
-                                kappa=given_k)
+                s2_given = None if not fixed_s2 else (s2_of_sigma(given_k) / unit ** 2)[cols]
+                kw = dict(mean=fmean, s2=s2_given, noise2=None if fnoise2 is None else fnoise2[cols],
+                          fit_noise=fit_noise, kappa=given_k)
+                fit = fit_range(covariance, Z[:, cols], bracket, points=points, **kw)
+                edge = min(abs(math.log(fit["kappa"] / b)) for b in bracket)
+                if given_k is None and bracket != full and edge < 0.02:  # at the bracket's edge: search it all
+                    more = fit_range(covariance, Z[:, cols], full, **kw)
+                    more["evaluations"] += fit["evaluations"]
+                    fit = more
             for i, j in enumerate(cols):
-                kappa[j], s2[j], n2[j] = fit["kappa"], fit["s2"][i], fit["noise2"][i]
+                kappa[j] = fit["kappa"]
+                s2[j], n2[j] = fit["s2"][i] * unit[j] ** 2, fit["noise2"][i] * unit[j] ** 2
                 if not fixed_s2 and n2[j] == 0.0:  # re-profiled below on all the samples (closed form)
                     s2[j] = None
+            # the likelihood of the data as given: the standardisation's Jacobian
+            dof = sub.size - (0 if known else 1)  # the standardisation's Jacobian: the data's own likelihood
+            fit["loglik"] -= dof * float(np.log(unit[cols]).sum())
             fits.append(fit)
         report["loglik"] = float(sum(f["loglik"] for f in fits))
         report["fit"] = {"samples": int(sub.size), "evaluations": int(sum(f["evaluations"] for f in fits)),
@@ -281,7 +303,20 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto"):
     return X, std, report
 
 
-def _fit_sigma_given(covariance, Y, bounds, opts, s2_of_sigma, cols, noise2, fit_noise):
+def _near_euclidean(P, Y, bounds, v, mean, noise2, fit_noise, report):
+    """``(bounds, grid points)`` for the mesh's search: within a factor 2 of the straight-line Matérn fit."""
+    D = np.linalg.norm(P[:, None, :] - P[None, :, :], axis=-1)
+    fit = fit_range(lambda kap: matern_correlation(D, kap, v), Y, bounds, mean=mean, noise2=noise2,
+                    fit_noise=fit_noise)
+    k0 = fit["kappa"]
+    lo, hi = max(bounds[0], k0 / 2.0), min(bounds[1], k0 * 2.0)
+    report["fit_start"] = {"kappa": k0, "from": "straight-line distances", "bracket": [lo, hi]}
+    if not lo < hi:
+        return bounds, 7
+    return (lo, hi), 3
+
+
+def _fit_sigma_given(covariance, Y, bounds, mean, s2_of_sigma, cols, noise2, fit_noise):
     """``sigma`` given, ``range`` fitted: the scale moves with ``kappa``, so each ``kappa`` fixes it."""
     from .gpfit import bounded_search
 
@@ -289,8 +324,8 @@ def _fit_sigma_given(covariance, Y, bounds, opts, s2_of_sigma, cols, noise2, fit
 
     def objective(lk):
         kap = math.exp(lk)
-        lik = Likelihood(covariance(kap), Y[:, cols], opts.mean)
-        s = np.full(len(cols), s2_of_sigma(kap))
+        lik = Likelihood(covariance(kap), Y[:, cols], mean)
+        s = np.asarray(s2_of_sigma(kap))[cols]
         v, params = restricted_loglik(lik, list(range(len(cols))), s2=s,
                                       noise2=None if noise2 is None else noise2[cols], fit_noise=fit_noise)
         cache[lk] = (v, params)

@@ -151,7 +151,9 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
                         opts.alpha, 2)
     length, diameter = _lengths(V, F)
     oidx, rows, Y = _observations(points, idx, vals)
-    X, std, report = gp_condition(shape, oidx, rows, Y, opts, length=length, diameter=diameter, solver=solver)
+    where = V[oidx] if rows is None else np.vstack([V[oidx], sp.csr_array(rows) @ V])
+    X, std, report = gp_condition(shape, oidx, rows, Y, opts, length=length, diameter=diameter, solver=solver,
+                                  positions=where)
     return X, std, report
 
 

@@ -386,7 +386,7 @@ def test_demo(tmp_path, capsys):
     assert code == 0 and err == ""
     rmse = {line.split("(")[1].split(")")[0].strip(): float(line.split("relative RMSE ")[1].split(",")[0])
             for line in out.splitlines() if "vertices (" in line and "relative RMSE" in line}
-    assert len(rmse) == 3 and all(0 < r < 0.5 for r in rmse.values())
+    assert len(rmse) == 4 and all(0 < r < 0.5 for r in rmse.values())
     # the paper's pipeline beats point constraints on the same samples
     assert rmse["100 points, pipeline"] < rmse["100 points, harmonic"]
     base = ["report.txt", "samples.csv", "sphere.ply", "sphere.vtu"]
@@ -397,8 +397,11 @@ def test_demo(tmp_path, capsys):
     m = meshio.read(outdir / "sphere.vtu")
     assert len(m.points) == 40962
     assert {"truth", "harmonic_curves", "harmonic_points", "circle_mask", "sample_mask",
-            "reconstruct_points", "curve_mask", "patch_label"} <= set(m.point_data)
+            "reconstruct_points", "curve_mask", "patch_label", "gp", "gp_std"} <= set(m.point_data)
     scale = np.ptp(m.point_data["truth"])
+    sample = m.point_data["sample_mask"].astype(bool)
+    assert np.all(m.point_data["gp_std"][sample] == 0) and np.all(m.point_data["gp_std"][~sample] > 0)
+    np.testing.assert_allclose(m.point_data["gp"][sample], m.point_data["truth"][sample], atol=1e-9 * scale)
     # the command the demo suggests runs, and gives the demo's own pipeline result
     code, out, err = run(capsys, "reconstruct", outdir / "sphere.ply", outdir / "samples.csv",
                          "-o", outdir / "mine.npy")

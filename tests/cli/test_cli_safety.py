@@ -96,9 +96,11 @@ def _big_case(folder):
 def test_a_signal_during_the_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path, sig, code):
     _big_case(tmp_path)
     env = dict(os.environ, PYTHONUNBUFFERED="1")
+    # a shell's background job starts with SIGINT ignored, and Python then keeps it ignored: give the child the
+    # default disposition, as a terminal would
     proc = subprocess.Popen([sys.executable, "-m", "manifill", "harmonic", "big.ply", "s.csv", "-o", "out.csv",
                              "--solver", "amg"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env=env, text=True)
+                            env=env, text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     seen = False
     while time.monotonic() < deadline and proc.poll() is None:

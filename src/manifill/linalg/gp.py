@@ -159,7 +159,8 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
     positions : (k + m, d) numpy array, optional
         Where the observations are. With them, a fitted range starts from the fit of the
         continuum Matérn correlation of straight-line distances (no solves), and the mesh's
-        likelihood is then searched within a factor 3 of it (fewer factorisations).
+        likelihood is then searched within a factor 2 of it (fewer factorisations; the
+        whole interval when the optimum is at that bracket's edge).
 
     Returns
     -------
@@ -231,8 +232,10 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
                 kw = dict(mean=fmean, s2=s2_given, noise2=None if fnoise2 is None else fnoise2[cols],
                           fit_noise=fit_noise, kappa=given_k)
                 fit = fit_range(covariance, Z[:, cols], bracket, points=points, **kw)
-                edge = min(abs(math.log(fit["kappa"] / b)) for b in bracket)
-                if given_k is None and bracket != full and edge < 0.02:  # at the bracket's edge: search it all
+                # at an edge of the bracket that is not an end of the whole interval: search it all
+                inner = [b for b, f in zip(bracket, full) if abs(math.log(b / f)) > 1e-9]
+                edge = min((abs(math.log(fit["kappa"] / b)) for b in inner), default=np.inf)
+                if given_k is None and edge < 0.02:
                     more = fit_range(covariance, Z[:, cols], full, **kw)
                     more["evaluations"] += fit["evaluations"]
                     fit = more
@@ -241,7 +244,6 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
                 s2[j], n2[j] = fit["s2"][i] * unit[j] ** 2, fit["noise2"][i] * unit[j] ** 2
                 if not fixed_s2 and n2[j] == 0.0:  # re-profiled below on all the samples (closed form)
                     s2[j] = None
-            # the likelihood of the data as given: the standardisation's Jacobian
             dof = sub.size - (0 if known else 1)  # the standardisation's Jacobian: the data's own likelihood
             fit["loglik"] -= dof * float(np.log(unit[cols]).sum())
             fits.append(fit)

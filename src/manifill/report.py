@@ -100,6 +100,8 @@ def uncertainty_lines(report, std, trusted=None, point_ndim=1):
         fitted = gp.get("fitted", [])
         parts = [f"{name} {_numbers(gp.get(name))} ({'fitted' if name in fitted else 'given'})"
                  for name in ("range", "sigma", "noise")]
+        if any(x is None for x in gp.get("sigma") or [None]):  # alpha=1: no finite variance, a fitted scale
+            parts[1] = f"scale {_numbers(gp.get('scale'))} (fitted; no marginal sigma at nu <= 0)"
         bounds = gp.get("fit", {}).get("range_bounds")
         if "range" in fitted and bounds and gp.get("range"):
             at = [b for b in bounds if any(abs(r - b) <= 1e-3 * b for r in gp["range"])]

@@ -342,6 +342,9 @@ def uncertainty_opts(args, methods=STD_METHODS):
         given = [flag for flag in given if flag not in ("--variance", "--variance-samples")]
     if given and method != "gp":
         hint = " (the energy methods take noisy samples with --smoothing)" if given[0] == "--noise" else ""
+        if given[0] in ("--variance", "--variance-samples") and method in STD_METHODS[1:]:
+            raise OptionError(f"{given[0]} says how --uncertainty computes the std; pass --uncertainty too, or "
+                              f"leave {given[0]} out")
         raise OptionError(f"{given[0]} is an option of --method gp, not of {named}; pass --method gp or leave "
                           f"{given[0]} out{hint}")
     if (args.uncertainty or args.trust is not None) and method not in methods:

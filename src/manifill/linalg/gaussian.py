@@ -43,7 +43,8 @@ VARIANCES = ("auto", "exact", "sampled")
 #: Largest number of unknowns for which ``variance='auto'`` inverts densely (about 1 s and 0.2 GB at 5,000).
 EXACT_MAX = 5_000
 
-#: Largest number of unknowns ``variance='exact'`` accepts (a dense ``n x n`` inverse: 3.2 GB at 20,000).
+#: Largest number of unknowns ``variance='exact'`` accepts (a dense ``n x n`` inverse in place: 3.2 GB at 20,000;
+#: three such arrays with points inside faces, whose KKT matrix is solved against the identity).
 EXACT_LIMIT = 20_000
 
 _CHUNK = 50  # conditional samples solved at once
@@ -70,9 +71,12 @@ class Conditional:
         Linear solver; exact observations with ``rows`` always factorise (KKT).
     tol, maxiter : optional
         For ``amg``.
+    definite : bool, optional
+        ``Q`` is positive definite (a Matérn precision): a part of the mesh without
+        observations is solved too (its conditional law is the prior's).
     """
 
-    def __init__(self, Q, B, idx, *, rows=None, eta=None, solver="auto", tol=None, maxiter=None):
+    def __init__(self, Q, B, idx, *, rows=None, eta=None, solver="auto", tol=None, maxiter=None, definite=False):
         self.Q = sp.csr_array(Q)
         self.B = None if B is None else sp.csr_array(B)
         self.n = self.Q.shape[0]
@@ -84,7 +88,8 @@ class Conditional:
         if eta is None:
             self.eta = None
             use = "direct" if rows is not None and solver != "direct" else solver
-            self._qs = QuadraticSolver(self.Q, self.idx, solver=use, Aeq=self.rows, on_empty="error",
+            self._qs = QuadraticSolver(self.Q, self.idx, solver=use, Aeq=self.rows,
+                                       on_empty="solve" if definite else "error",
                                        tol=tol, maxiter=maxiter, symmetric_pattern=True, what="the precision")
             self.report = {k: v for k, v in self._qs.report.items() if k in ("solver", "unknowns")}
         else:
@@ -162,8 +167,13 @@ class Conditional:
             how = "exact" if u <= EXACT_MAX else "sampled"
         t0 = time.perf_counter()
         if how == "exact":
-            if u > EXACT_LIMIT:
-                gb = 8.0 * u * u / 1e9
+            need = 8.0 * u * u * (1 if self.rows is None or self.eta is not None else 3)
+            if u <= EXACT_LIMIT:
+                from ..memory import check_fits
+
+                check_fits(need, f"variance='exact' ({u:,} unknowns, a dense inverse)", "pass variance='sampled'")
+            else:
+                gb = need / 1e9
                 raise ResourceError(f"variance='exact' inverts a dense {u} x {u} matrix ({gb:.1f} GB), beyond "
                                     f"{EXACT_LIMIT} unknowns; pass variance='sampled'")
             var, info = self._exact(), {"how": "exact"}
@@ -244,10 +254,11 @@ def _inverse_diagonal(A):
     """``diag(A^-1)`` of a dense symmetric positive definite ``A`` (Cholesky)."""
     import scipy.linalg as la
 
-    try:
-        L = la.cholesky(A, lower=True)
-    except la.LinAlgError:
+    # in place (LAPACK's potrf then potri): one n x n array in all, A's own
+    c, info = la.lapack.dpotrf(np.asfortranarray(A), lower=1, overwrite_a=1, clean=0)
+    if info == 0:
+        c, info = la.lapack.dpotri(c, lower=1, overwrite_c=1)
+    if info != 0:
         raise SolveError("the precision is not positive definite to working precision (degenerate elements?); "
-                         "clean the mesh, or pass variance='sampled'") from None
-    Li = la.solve_triangular(L, np.eye(A.shape[0]), lower=True)
-    return np.einsum("ij,ij->j", Li, Li)
+                         "clean the mesh, or pass variance='sampled'")
+    return np.diagonal(c).copy()

@@ -124,8 +124,17 @@ variance, samples, seed, fit_samples; pass those names
     if isinstance(mean, str):
         if mean != "constant":
             raise OptionError(f"gp mean={mean!r} is not 'constant' or a number; pass one of those")
-    elif not math.isfinite(float(mean)):
-        raise OptionError(f"gp mean={mean!r} is not a finite number; pass 'constant' or a number")
+    else:
+        try:
+            ok = math.isfinite(float(mean))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise OptionError(f"gp mean={mean!r} is not a finite number; pass 'constant' or a number")
+    if not isinstance(o.share, (bool, np.bool_)):
+        raise OptionError(f"gp share={o.share!r} is not True or False; pass one of those")
+    if not isinstance(o.seed, (int, np.integer)) or isinstance(o.seed, bool) or o.seed < 0:
+        raise OptionError(f"gp seed={o.seed!r} is not an integer >= 0; pass one")
     for name in ("samples", "fit_samples"):
         v = getattr(o, name)
         if not isinstance(v, (int, np.integer)) or v < (2 if name == "samples" else 3):
@@ -141,7 +150,7 @@ def _groups(keys):
     return out
 
 
-def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", positions=None):
+def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", positions=None, with_std=True):
     """Posterior mean and standard deviation of the Matérn field at every node.
 
     Parameters
@@ -161,6 +170,9 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
         continuum Matérn correlation of straight-line distances (no solves), and the mesh's
         likelihood is then searched within a factor 2 of it (fewer factorisations; the
         whole interval when the optimum is at that bracket's edge).
+
+    with_std : bool, optional
+        False: the mean only (``std`` is None; no variance is computed).
 
     Returns
     -------
@@ -200,8 +212,10 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
 
         H = _observations(shape.n, idx, rows)
         sub = np.arange(m)
-        if m > opts.fit_samples:
-            sub = np.sort(np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False))
+        if m > opts.fit_samples:  # drawn in the order of the positions: the same subset however nodes are numbered
+            order = np.arange(m) if positions is None else np.lexsort(np.asarray(positions, dtype=np.float64).T)
+            pick = np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False)
+            sub = np.sort(order[pick])
         Hs = H[sub]
         # the fit sees each field standardised: the range it finds is then the same for a * y + b, exactly
         known = not isinstance(opts.mean, str)
@@ -264,12 +278,14 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
     X = np.empty((shape.n, p))
     std = np.empty((shape.n, p))
     beta = [0.0] * p
-    var_info = None
+    var_info = []
     t = time.perf_counter()
-    eta_key = [(kappa[j], None if s2[j] is None or n2[j] == 0 else n2[j] / s2[j]) for j in range(p)]
+    # fields that share kappa and the noise ratio share one precision (the ratio to 12 digits: a shared fit's
+    # fields carry it through their own scales, rounded apart in the last bits)
+    eta_key = [(kappa[j], None if s2[j] is None or n2[j] == 0 else float(f"{n2[j] / s2[j]:.12g}")) for j in range(p)]
     for (kap, eta), cols in _groups(eta_key).items():
         Q, B = shape.precision(kap), shape.root(kap)
-        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver))
+        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver), definite=True)
         known = not isinstance(opts.mean, str)
         data = Y[:, cols] - (float(opts.mean) if known else 0.0)
         Z = cond.extend(np.column_stack([data, np.ones(m)]))
@@ -286,11 +302,14 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
                 q = G[i, i] - G[i, -1] ** 2 / a
             if s2[j] is None:  # the scale in closed form: REML (or ML with a known mean)
                 s2[j] = max(q / (m - (0 if known else 1)), 1e-300)
-        var, var_info = cond.variance(opts.variance, samples=opts.samples, seed=opts.seed)
+        report["solver"] = cond.report
+        if not with_std:
+            continue
+        var, info = cond.variance(opts.variance, samples=opts.samples, seed=opts.seed)
         extra = 0.0 if known else (1.0 - Z[:, -1]) ** 2 / a
         for j in cols:
             std[:, j] = np.sqrt(np.maximum(s2[j] * (var + extra), 0.0))
-        report["solver"] = cond.report
+        var_info.append(info)
     seconds["posterior"] = time.perf_counter() - t
     report.update({
         "kappa": [float(k) for k in kappa],
@@ -299,10 +318,23 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
         "sigma": [None if v <= 0 else math.sqrt(s2[j] * var_factor * kappa[j] ** (-2.0 * v)) for j in range(p)],
         "noise": [math.sqrt(x) for x in n2],
         "mean": [float(b) for b in beta],
-        "variance": {k: v2 for k, v2 in var_info.items() if k != "se"},
+        "variance": _variance_summary(var_info),
+        "groups": len(_groups(eta_key)),
         "seconds": {**seconds, "total": time.perf_counter() - t0},
     })
-    return X, std, report
+    return X, (std if with_std else None), report
+
+
+def _variance_summary(infos):
+    """One report of the variance computations of every group of fields (the worst Monte Carlo error)."""
+    if not infos:
+        return {"how": None}
+    out = {k: v for k, v in infos[0].items() if k != "se"}
+    out["seconds"] = float(sum(i["seconds"] for i in infos))
+    for key in ("rel_se_median", "rel_se_max"):
+        if key in out:
+            out[key] = float(max(i[key] for i in infos))
+    return out
 
 
 def _near_euclidean(P, Y, bounds, v, mean, noise2, fit_noise, report):

@@ -75,10 +75,11 @@ class QuadraticSolver:
         Fixed indices, each listed once (may be empty when ``Aeq`` anchors every component).
     solver : {'auto', 'direct', 'amg', 'iterate'}, optional
         Backend (see :mod:`manifill.linalg.backends`).
-    on_empty : {'error', 'nan'}, optional
+    on_empty : {'error', 'nan', 'solve'}, optional
         A connected component of ``A``'s graph without a fixed index: raise
         :class:`~manifill.errors.SolveError` naming it, or leave it NaN (listed
-        in ``report["empty_components"]``).
+        in ``report["empty_components"]``); ``'solve'``: ``A`` is positive definite
+        (a Gaussian precision), so such a component is solved like the others.
     iteration : {'gauss-seidel', 'jacobi'}, optional
         Sweep type of ``solver="iterate"``.
     tol : float, optional
@@ -151,7 +152,7 @@ class QuadraticSolver:
 
     def __init__(self, A, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None,
                  maxiter=None, symmetric_pattern=False, Aeq=None, what="A"):
-        check_option("on_empty", on_empty, ON_EMPTY)
+        check_option("on_empty", on_empty, ON_EMPTY + ("solve",))
         A = as_laplacian(A, what=what)
         if Aeq is not None:
             Aeq = self._equality_rows(Aeq, A.shape[0], solver)
@@ -228,6 +229,9 @@ class QuadraticSolver:
             anchors = np.concatenate([anchors, labels[Aeq.indices[Aeq.data != 0]]])
         has_fixed = np.bincount(anchors, minlength=ncomp) > 0
         self.empty = ~has_fixed[labels]
+        if on_empty == "solve":  # a positive definite energy: such components have a unique minimiser too
+            has_fixed[:] = True
+            self.empty[:] = False
         empty_components = []
         if self.empty.any():
             for c in np.flatnonzero(~has_fixed):

@@ -113,7 +113,8 @@ def _observations(points, idx, vals):
     return points.idx, None, points.vals
 
 
-def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto", points=None, seconds=None):
+def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto", points=None, seconds=None,
+                   with_std=True):
     """``(values, std, report)`` of ``method='gp'`` on a triangle Surface.
 
     Parameters
@@ -126,6 +127,8 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
         The finite-element stiffness; other weights are refused.
     solver : {'auto', 'direct', 'amg'}
     points : PointSamples, optional
+    with_std : bool, optional
+        False (``uncertainty=False``): the mean only, ``std`` None.
 
     Raises
     ------
@@ -153,7 +156,7 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
     oidx, rows, Y = _observations(points, idx, vals)
     where = V[oidx] if rows is None else np.vstack([V[oidx], sp.csr_array(rows) @ V])
     X, std, report = gp_condition(shape, oidx, rows, Y, opts, length=length, diameter=diameter, solver=solver,
-                                  positions=where)
+                                  positions=where, with_std=with_std)
     return X, std, report
 
 
@@ -208,8 +211,22 @@ def energy_uncertainty(surface, k, weights, idx, vals, points, X, fill_report, *
             raise OptionError("uncertainty with smoothing='auto' and several fields needs one lambda for all "
                               "(their lambdas differ); reconstruct the fields one at a time")
         eta = lam[0] / w
-    ncomp, _ = pattern_components(Q, symmetric=True)
-    std, rep = intrinsic_std(Q, B, oidx, rows, Y, X, eta=eta, how=variance, samples=samples, seed=seed,
-                             solver=solver, components=int(ncomp))
+    ncomp, labels = pattern_components(Q, symmetric=True)
+    touched = labels[oidx] if rows is None else np.concatenate([labels[oidx], labels[rows.indices[rows.data != 0]]])
+    anchored = np.bincount(touched, minlength=ncomp) > 0
+    keep = np.flatnonzero(anchored[labels])
+    std = np.full(X.shape, np.nan)  # a component without samples (on_empty='nan'): no value, no std
+    if keep.size < Q.shape[0]:
+        pos = np.full(Q.shape[0], -1, dtype=np.int64)
+        pos[keep] = np.arange(keep.size)
+        Q = sp.csr_array(Q)[keep][:, keep]
+        if B is not None:  # the root's rows of the dropped components touch only them
+            B = sp.csr_array(B)[:, keep]
+            B = B[np.flatnonzero(np.diff(B.indptr))]
+        oidx = pos[oidx]
+        rows = None if rows is None else sp.csr_array(rows)[:, keep]
+    sub, rep = intrinsic_std(Q, B, oidx, rows, Y, X[keep], eta=eta, how=variance, samples=samples, seed=seed,
+                             solver=solver, components=int(anchored.sum()))
+    std[keep] = sub
     rep["energy"] = k
     return std, rep

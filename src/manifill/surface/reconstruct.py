@@ -334,7 +334,7 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
         tick(progress, "gp")
         t = time.perf_counter()
         values, std, report["gp"] = reconstruct_gp(surface, idx, vals, gp=gp, weights=weights, solver=solver,
-                                                   points=points)
+                                                   points=points, with_std=uncertainty)
         seconds["gp"] = time.perf_counter() - t
     elif method in ENERGY_METHODS and (method != "harmonic" or bounds is not None or smoothing is not None
                                        or (points is not None and points.inside)):
@@ -382,7 +382,9 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
         o = as_gp_options(gp)
         std, report["uncertainty"] = energy_uncertainty(
             surface, ENERGY_METHODS[method], weights, idx, vals, points, values, report.get("harmonic", {}),
-            sample_weights=sample_weights, solver="direct" if solver == "iterate" else solver,
+            sample_weights=(sample_weights if sample_weights is None or points is None
+                            else points.weights(sample_weights)),
+            solver="direct" if solver == "iterate" else solver,
             variance=o.variance, samples=o.samples, seed=o.seed)
         seconds["uncertainty"] = time.perf_counter() - t
     trusted = None

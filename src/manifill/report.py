@@ -56,8 +56,8 @@ def _variance_line(info):
     how = info.get("how", "?")
     if how == "sampled":
         return (f"variance sampled ({info.get('samples', '?')} Monte Carlo samples; its relative standard error: "
-                f"median {info.get('rel_se_median', float('nan')):.1%}, largest {info.get('rel_se_max', float('nan')):.1%}; "
-                f"the std's is about half)")
+                f"median {info.get('rel_se_median', float('nan')):.1%}, "
+                f"largest {info.get('rel_se_max', float('nan')):.1%}; the std's is about half)")
     return f"variance {how}"
 
 

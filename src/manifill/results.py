@@ -24,8 +24,8 @@ import numpy as np
 
 from .errors import SampleError
 
-__all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "TRUSTED", "RESERVED_NAMES", "Result", "field_names",
-           "sample_mask"]
+__all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "TRUSTED", "RESERVED_NAMES", "Result",
+           "field_names", "with_std", "sample_mask"]
 
 #: 1 where a vertex (or voxel) holds a sample
 SAMPLE_MASK = "sample_mask"
@@ -75,6 +75,33 @@ def field_names(names, p):
             raise SampleError(f"the value column name {name!r} repeats; give each value column its own name")
         seen.add(name)
     return names
+
+
+def with_std(data, std, names, point_ndim=1):
+    """``data`` (fields first, then masks) with each field's ``<name>_std`` after the fields, when ``std`` is given.
+
+    Raises
+    ------
+    SampleError
+        A field's name is another field's ``<name>_std``.
+
+    Examples
+    --------
+    >>> d = with_std({"t": np.zeros(2), "sample_mask": np.ones(2)}, np.ones(2), ["t"])
+    >>> list(d)
+    ['t', 't_std', 'sample_mask']
+    """
+    if std is None:
+        return data
+    S = std if std.ndim == point_ndim + 1 else std[..., None]
+    keys = field_names(names, S.shape[-1])
+    clash = [f"{key}_std" for key in keys if f"{key}_std" in keys]
+    if clash:
+        raise SampleError(f"the field name {clash[0]!r} is taken by the standard deviation of another field; "
+                          f"rename that field")
+    out = {key: data.pop(key) for key in keys}
+    out.update({f"{key}_std": S[..., j] for j, key in enumerate(keys)})
+    return {**out, **data}
 
 
 def sample_mask(n, idx):

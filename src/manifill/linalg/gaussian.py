@@ -35,7 +35,7 @@ from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
 
-__all__ = ["VARIANCES", "EXACT_MAX", "Conditional"]
+__all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "observation_matrix"]
 
 #: How the variance is computed: ``auto`` is ``exact`` up to :data:`EXACT_MAX` unknowns, ``sampled`` above.
 VARIANCES = ("auto", "exact", "sampled")
@@ -106,8 +106,7 @@ class Conditional:
 
     def observation_matrix(self):
         """``H`` (CSR, ``(k + m) x n``): the unit rows at ``idx``, then ``rows``."""
-        E = sp.csr_array((np.ones(self.k), (np.arange(self.k), self.idx)), shape=(self.k, self.n))
-        return E if self.rows is None else sp.csr_array(sp.vstack([E, self.rows]))
+        return observation_matrix(self.n, self.idx, self.rows)
 
     def extend(self, Y):
         """The conditional mean of the zero-mean field for each data column.
@@ -211,15 +210,11 @@ class Conditional:
 
     def _sampled(self, S, seed):
         rng = np.random.default_rng(seed)
-        if self.eta is None:
-            d = self.Q.diagonal()
-            touched = np.zeros(self.n, dtype=bool)
-            if self.rows is not None:
-                touched[self.rows.indices[self.rows.data != 0]] = True
-        else:
-            d = self.P.diagonal()
-            touched = np.zeros(self.n, dtype=bool)
-        M = self.Q if self.eta is None else self.P
+        M = self.Q if self.eta is None else self.P  # the precision of the law sampled
+        d = M.diagonal()
+        touched = np.zeros(self.n, dtype=bool)  # nodes inside a point's face, exactly observed: plain averages
+        if self.eta is None and self.rows is not None:
+            touched[self.rows.indices[self.rows.data != 0]] = True
         acc, acc2 = np.zeros(self.n), np.zeros(self.n)
         done = 0
         while done < S:
@@ -248,6 +243,13 @@ class Conditional:
             rel = np.where(var > 0, se / var, 0.0)
         return var, {"how": "sampled", "samples": S, "se": se, "rel_se_median": float(np.median(rel)),
                      "rel_se_max": float(rel.max()) if rel.size else 0.0}
+
+
+def observation_matrix(n, idx, rows=None):
+    """``H`` (CSR, ``(k + m) x n``): a unit row at each of the ``k`` vertices ``idx``, then the ``m`` ``rows``."""
+    idx = np.asarray(idx, dtype=np.int64)
+    E = sp.csr_array((np.ones(idx.size), (np.arange(idx.size), idx)), shape=(idx.size, n))
+    return E if rows is None else sp.csr_array(sp.vstack([E, sp.csr_array(rows)]))
 
 
 def _inverse_diagonal(A):

@@ -21,11 +21,10 @@ import time
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError
-from .gaussian import VARIANCES, Conditional
-from .gpfit import Likelihood, fit_range, matern_correlation, restricted_loglik
+from .gaussian import VARIANCES, Conditional, observation_matrix
+from .gpfit import fit_range, matern_correlation
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 
 __all__ = ["GPOptions", "as_gp_options", "gp_condition", "intrinsic_std"]
@@ -210,7 +209,7 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
         t = time.perf_counter()
         from .factorise import factorise
 
-        H = _observations(shape.n, idx, rows)
+        H = observation_matrix(shape.n, idx, rows)
         sub = np.arange(m)
         if m > opts.fit_samples:  # drawn in the order of the positions: the same subset however nodes are numbered
             order = np.arange(m) if positions is None else np.lexsort(np.asarray(positions, dtype=np.float64).T)
@@ -238,9 +237,10 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
                                               fnoise2, fit_noise, report)
         for cols in cols_sets:
             given_k = None if opts.range == "auto" else kappa_from_range(opts.range, alpha, d)
-            if fixed_s2 and given_k is None:  # the scale follows kappa: fit through the absolute form
-                fit = _fit_sigma_given(covariance, Z, bounds, fmean, lambda kap: s2_of_sigma(kap) / unit ** 2,
-                                       cols, fnoise2, fit_noise)
+            if fixed_s2 and given_k is None:  # the scale follows kappa
+                fit = fit_range(covariance, Z[:, cols], bounds, mean=fmean,
+                                s2=lambda kap, cols=cols: (s2_of_sigma(kap) / unit ** 2)[cols],
+                                noise2=None if fnoise2 is None else fnoise2[cols], fit_noise=fit_noise)
             else:
                 s2_given = None if not fixed_s2 else (s2_of_sigma(given_k) / unit ** 2)[cols]
                 kw = dict(mean=fmean, s2=s2_given, noise2=None if fnoise2 is None else fnoise2[cols],
@@ -350,37 +350,9 @@ def _near_euclidean(P, Y, bounds, v, mean, noise2, fit_noise, report):
     return (lo, hi), 3
 
 
-def _fit_sigma_given(covariance, Y, bounds, mean, s2_of_sigma, cols, noise2, fit_noise):
-    """``sigma`` given, ``range`` fitted: the scale moves with ``kappa``, so each ``kappa`` fixes it."""
-    from .gpfit import bounded_search
-
-    cache = {}
-
-    def objective(lk):
-        kap = math.exp(lk)
-        lik = Likelihood(covariance(kap), Y[:, cols], mean)
-        s = np.asarray(s2_of_sigma(kap))[cols]
-        v, params = restricted_loglik(lik, list(range(len(cols))), s2=s,
-                                      noise2=None if noise2 is None else noise2[cols], fit_noise=fit_noise)
-        cache[lk] = (v, params)
-        return v
-
-    lk, _ = bounded_search(objective, *(math.log(b) for b in bounds))
-    if lk not in cache:
-        objective(lk)
-    v, params = cache[lk]
-    return {"kappa": math.exp(lk), "s2": [q[0] for q in params], "noise2": [q[1] for q in params],
-            "neg2loglik": v, "loglik": -0.5 * v, "evaluations": len(cache)}
-
-
 def _many_rhs(solver):
     """``auto`` factorises: the variance takes ``samples`` solves, and CG would pay for each one anew."""
     return "direct" if solver == "auto" else solver
-
-
-def _observations(n, idx, rows):
-    E = sp.csr_array((np.ones(idx.size), (np.arange(idx.size), idx)), shape=(idx.size, n))
-    return E if rows is None else sp.csr_array(sp.vstack([E, sp.csr_array(rows)]))
 
 
 def intrinsic_std(Q, B, idx, rows, Y, X, *, eta=None, how="auto", samples=100, seed=0, solver="auto",

@@ -125,12 +125,13 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
     for j in cols:
         if s2 is None:  # absolute noise given: search the scale
             n2 = float(noise2[j])
-            ls, v = bounded_search(lambda x: lik.absolute(math.exp(x), n2, j), math.log(1e-12), math.log(1e12))
+            ls, v = bounded_search(lambda x, n2=n2, j=j: lik.absolute(math.exp(x), n2, j), math.log(1e-12),
+                                   math.log(1e12))
             params.append((math.exp(ls), n2))
         elif fit_noise:  # scale given: search the noise
             sj = float(s2[j])
-            ln, v = bounded_search(lambda x: lik.absolute(sj, math.exp(x), j), math.log(sj * scale * 1e-8),
-                             math.log(sj * scale * 10.0))
+            ln, v = bounded_search(lambda x, sj=sj, j=j: lik.absolute(sj, math.exp(x), j),
+                                   math.log(sj * scale * 1e-8), math.log(sj * scale * 10.0))
             v0 = lik.absolute(sj, 0.0, j)
             if v0 <= v:
                 ln, v = -np.inf, v0
@@ -159,7 +160,8 @@ def fit_range(covariance, Y, kappa_bounds, *, mean="constant", s2=None, noise2=N
     points : int, optional
         The grid of ``log kappa`` before Brent's refinement.
     mean, s2, noise2, fit_noise
-        As :class:`Likelihood` and :func:`restricted_loglik`.
+        As :class:`Likelihood` and :func:`restricted_loglik`; ``s2`` may also be a function
+        of ``kappa`` (a given marginal sigma fixes the scale at each ``kappa``).
 
     Returns
     -------
@@ -174,7 +176,8 @@ def fit_range(covariance, Y, kappa_bounds, *, mean="constant", s2=None, noise2=N
     def objective(lk):
         R = covariance(math.exp(lk))
         lik = Likelihood(R, Y, mean)
-        v, params = restricted_loglik(lik, cols, s2=s2, noise2=noise2, fit_noise=fit_noise)
+        s = s2(math.exp(lk)) if callable(s2) else s2  # a given sigma makes the scale follow kappa
+        v, params = restricted_loglik(lik, cols, s2=s, noise2=noise2, fit_noise=fit_noise)
         cache[lk] = (v, params)
         return v
 

@@ -26,7 +26,6 @@ from ..errors import OptionError
 from ..linalg.gp import as_gp_options, gp_condition
 from ..linalg.spde import MaternShape
 from ..mesh.roots import edge_root
-from ..results import field_names
 from ..surface.gp import check_uncertainty, trust_mask
 from ..validate import as_mask, as_origin, as_samples, as_spacing, as_tets, as_voxels
 from .boundary import boundary_voxels
@@ -34,7 +33,7 @@ from .tets import tet_gradient_root, tet_laplacian, tet_mass_matrix
 from .voxels import as_connectivity, stencil_weights, voxel_laplacian
 
 __all__ = ["GP_SOLVERS", "GP_KEYS", "tet_shape", "voxel_shape", "gp_tets", "gp_voxels", "volume_gp",
-           "split_gp_options", "finish", "std_point_data"]
+           "split_gp_options", "finish"]
 
 #: The linear solvers of the solid's gp (multigrid and the iteration have no conditional variance here).
 GP_SOLVERS = ("auto", "direct", "amg")
@@ -267,14 +266,3 @@ def volume_gp(V, F, idx, vals, gpo, *, form, resolution, connectivity, max_volum
     r.report.update({"resolution": int(resolution), "merged": int(sidx.size - r.samples.shape[0]),
                      "snap_max": float(dist.max() / spacing.min()) if dist.size else 0.0})
     return finish(r, gpo)
-
-
-def std_point_data(data, std, names, point_ndim):
-    """``data`` (fields first, then masks) with ``<field>_std`` after the fields, when ``std`` is given."""
-    if std is None:
-        return data
-    S = std if std.ndim == point_ndim + 1 else std[..., None]
-    keys = field_names(names, S.shape[-1])
-    out = {key: data.pop(key) for key in keys}
-    out.update({f"{key}_std": S[..., j] for j, key in enumerate(keys)})
-    return {**out, **data}

@@ -33,7 +33,7 @@ from ..linalg.backends import SOLVERS
 from ..memory import check_fits
 from ..mesh.objects import mesh_arrays
 from ..progress import tick
-from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result
+from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result, with_std
 from ..surface.reconstruct import Reconstruction, check_options, reconstruct, reconstruct_surface
 from ..validate import as_mask, as_samples, as_tets, as_voxels, check_option
 from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, surface_to_points,
@@ -41,7 +41,7 @@ from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, 
 from .estimates import (FORMS, TET_FILL_SOLVERS, check_fill_solver, mask_fill_estimate, n_fields,
                         tet_mesh_fill_estimate, volume_estimate)
 from .fill import FILL_SOLVERS, VoxelFill, tet_fill
-from .gp import finish, gp_tets, gp_voxels, split_gp_options, std_point_data, volume_gp
+from .gp import finish, gp_tets, gp_voxels, split_gp_options, volume_gp
 from .tetrahedralize import tetrahedralize
 from .tets import boundary_faces, boundary_vertices
 from .voxels import as_connectivity, as_origin, as_spacing, voxel_centres
@@ -135,7 +135,7 @@ class VolumeReconstruction(Result):
 
     def point_data(self, names=None):
         """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
-        return std_point_data(super().point_data(names), self.std, names, self.point_ndim)
+        return with_std(super().point_data(names), self.std, names, self.point_ndim)
 
     def to_pyvista(self, names=None):
         """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).

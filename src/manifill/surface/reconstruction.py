@@ -4,8 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SampleError
-from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, field_names
+from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, with_std
 
 __all__ = ["Reconstruction"]
 
@@ -100,18 +99,7 @@ class Reconstruction(Result):
             The fields, their standard deviations (``<name>_std``, when computed),
             ``sample_mask``, ``curve_mask``, ``patch_label`` (and ``trusted``).
         """
-        data = super().point_data(names)
-        if self.std is None:
-            return data
-        S = self.std if self.std.ndim == 2 else self.std[:, None]
-        keys = field_names(names, S.shape[1])
-        clash = [f"{key}_std" for key in keys if f"{key}_std" in keys]
-        if clash:
-            raise SampleError(f"the field name {clash[0]!r} is taken by the standard deviation of another field; "
-                              f"rename that field")
-        out = {key: data.pop(key) for key in keys}
-        out.update({f"{key}_std": S[:, j] for j, key in enumerate(keys)})
-        return {**out, **data}
+        return with_std(super().point_data(names), self.std, names)
 
     def to_pyvista(self, names=None):
         """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).

@@ -22,9 +22,11 @@ import scipy.sparse as sp
 from ..errors import OptionError, SampleError, SolveError
 from ..linalg.active_set import as_bounds as bounds_per_field
 from ..linalg.active_set import check_samples
+from ..linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
 from ..linalg.quadratic import QuadraticSolver
 from ..tolerances import TOL
 from .polyharmonic import PolyharmonicSolver
+from .prepared import cached
 
 __all__ = ["ENERGY_METHODS", "energy_fill", "as_bounds", "smoothing_value"]
 
@@ -76,7 +78,8 @@ def as_bounds(bounds, vals):
 
 
 def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_empty="error", bounds=None,
-                smoothing=None, sample_weights=None, tol=None, maxiter=None, Aeq=None, beq=None):
+                smoothing=None, sample_weights=None, tol=None, maxiter=None, Aeq=None, beq=None, fields=None,
+                prepared=None):
     """Minimise the k-harmonic energy on a Surface with the samples as constraints.
 
     Parameters
@@ -107,6 +110,13 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         bounds); ``'auto'`` picks between them by size as for vertex samples.
     beq : (m, p) numpy array, optional
         Their values.
+    fields : int, optional
+        How many fields will share these samples (default: ``vals``' columns); with
+        many, ``solver='auto'`` factorises larger systems too.
+    prepared : Prepared, optional
+        Keeps the energy and the solve core (its factorisation or hierarchy) for the
+        next call with the same samples (:mod:`manifill.surface.prepared`); the bounded
+        active set's own solves and the smoothing fit are made anew at every call.
 
     Returns
     -------
@@ -122,8 +132,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     SampleError, SolveError
         As for the solve core.
     """
-    L = surface.laplacian(weights)
-    A = _energy(surface, L, k)
+    A = cached(prepared, "energy matrix", lambda: _energy(surface, surface.laplacian(weights), k))
+    fields = vals.shape[1] if fields is None else fields
     lohi = as_bounds(bounds, vals if Aeq is None else np.vstack([vals, beq]))
     if smoothing is not None:
         if lohi is not None:
@@ -134,6 +144,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     if sample_weights is not None:
         raise OptionError("sample_weights weigh soft constraints; pass smoothing= too, or leave them out")
     auto = solver == "auto"
+    if auto and fields >= AUTO_DIRECT_FIELDS and (Aeq is None or lohi is None):
+        solver = auto_backend(A.shape[0] - idx.size, A.nnz, fields)  # many fields: a factorisation if it fits
     if Aeq is not None:
         solver, tol, maxiter = _row_solver(k, surface.n - idx.size - Aeq.shape[0], solver, lohi, tol, maxiter)
     elif k > 1:  # the k-harmonic systems' own backend policy and tolerance
@@ -146,8 +158,9 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         if Aeq is not None and lohi is not None:
             return _bounded_rows(A, idx, vals, Aeq, beq, lohi, on_empty=on_empty,
                                  symmetric_pattern=weights in ("uniform", "cotan"))
-        qs = QuadraticSolver(A, idx, solver=backend, on_empty=on_empty, tol=tol, maxiter=maxiter,
-                             symmetric_pattern=weights in ("uniform", "cotan"), Aeq=Aeq, what="the energy")
+        qs = cached(prepared, ("energy", backend), lambda: QuadraticSolver(
+            A, idx, solver=backend, on_empty=on_empty, tol=tol, maxiter=maxiter,
+            symmetric_pattern=weights in ("uniform", "cotan"), Aeq=Aeq, what="the energy"))
         X = qs.solve(vals, beq=beq) if lohi is None else qs.solve(vals, beq=beq, lo=lohi[0], hi=lohi[1])
         if Aeq is not None:
             X = _refine(qs, X, vals, beq)

@@ -12,10 +12,12 @@ The paper's Step 5 iterates from random values or from a gradually varied fit;
 import numpy as np
 
 from ..errors import SolveError
+from ..linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
 from ..mesh.laplacian import WEIGHTS
 from ..validate import check_option
 from .gradual import gvf
 from .harmonic import HarmonicSolver
+from .prepared import cached
 
 __all__ = ["INITS", "fill_patches", "gvf_fill", "start_values"]
 
@@ -120,7 +122,8 @@ def start_values(init, surface, idx, vals, *, checks=None, seed=0):
 
 
 def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error",
-                 iteration="gauss-seidel", x0=None, tol=None, maxiter=None, lo=None, hi=None):
+                 iteration="gauss-seidel", x0=None, tol=None, maxiter=None, lo=None, hi=None, fields=None,
+                 prepared=None):
     """Steps 5-6: the harmonic fill with the values at ``idx`` fixed.
 
     Parameters
@@ -147,6 +150,13 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
     lo, hi : (p,) array_like, optional
         Bounds of the fill (see :meth:`manifill.surface.harmonic.HarmonicSolver.solve`);
         ``vals`` must lie within them.
+    fields : int, optional
+        How many fields will share this fixed set (default: ``vals``' columns);
+        with many, ``solver='auto'`` factorises larger systems too
+        (:func:`manifill.linalg.backends.auto_backend`).
+    prepared : Prepared, optional
+        Keeps the solver for the next call with the same fixed set
+        (:mod:`manifill.surface.prepared`).
 
     Returns
     -------
@@ -172,10 +182,20 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
     (True, 'cotan')
     """
     check_option("weights", weights, WEIGHTS)
-    L = surface.laplacian(weights)
-    hs = HarmonicSolver.from_laplacian(L, idx, solver=solver, on_empty=on_empty, iteration=iteration,
-                                       tol=tol, maxiter=maxiter, symmetric_pattern=weights in ("uniform", "cotan"))
-    hs.report["weights"] = weights
+    fields = (1 if np.ndim(vals) == 1 else np.shape(vals)[1]) if fields is None else fields
+
+    def build():
+        L = surface.laplacian(weights)
+        backend = solver
+        if solver == "auto" and fields >= AUTO_DIRECT_FIELDS:  # many fields: a factorisation if it fits
+            backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields)
+        hs = HarmonicSolver.from_laplacian(L, idx, solver=backend, on_empty=on_empty, iteration=iteration,
+                                           tol=tol, maxiter=maxiter,
+                                           symmetric_pattern=weights in ("uniform", "cotan"))
+        hs.report["weights"] = weights
+        return hs
+
+    hs = cached(prepared, "fill", build)
     start = None
     if hs.report["solver"] == "iterate":
         start = x0() if callable(x0) else x0

@@ -6,6 +6,9 @@ default (``method=None``) runs, chosen by measurement, and :func:`check_options`
 every option against its closed set.
 """
 
+import numpy as np
+
+from ..errors import OptionError
 from ..linalg.backends import ITERATIONS, SOLVERS
 from ..mesh.graph import DISTANCES
 from ..mesh.laplacian import WEIGHTS
@@ -15,7 +18,7 @@ from .fill import INITS
 from .harmonic import ON_EMPTY
 from .partition import PARTITIONS
 
-__all__ = ["METHODS", "STEPS", "DEFAULT", "resolve_default", "check_options"]
+__all__ = ["METHODS", "STEPS", "DEFAULT", "CHECK_FIELDS", "resolve_default", "check_options", "runs_check"]
 
 METHODS = ("gvf-harmonic", "harmonic", "biharmonic", "triharmonic", "gvf", "rbf", "gp", "auto")
 
@@ -35,6 +38,31 @@ STEPS = {"gvf-harmonic": ("partition", "check", "curve values", "harmonic fill")
 #: vertices, the lowest median relative RMSE over the whole accuracy benchmark (``python -m bench accuracy``).
 #: The paper's pipeline with monotone cubic curve values, its fill bounded by the samples' range.
 DEFAULT = {"method": "gvf-harmonic", "curve_values": "monotone", "bounds": "samples"}
+
+
+#: ``check=None`` runs Step 1 (the gradual variation report) for every field when there are at most this many
+#: fields, and skips it for more (each field costs a few shortest-path passes); ``check=True`` runs it always.
+CHECK_FIELDS = 10
+
+
+def runs_check(check, method, curve_values, solver, init, fields):
+    """Whether Step 1 runs for ``fields`` fields: always where its levels are needed (``method='gvf'``,
+    ``curve_values='gvf'``, the iteration's GVF start), else as ``check`` says (None: up to :data:`CHECK_FIELDS`).
+
+    Examples
+    --------
+    >>> runs_check(None, "harmonic", None, "auto", "gvf", 3), runs_check(None, "harmonic", None, "auto", "gvf", 100)
+    (True, False)
+    >>> runs_check(False, "gvf", None, "auto", "gvf", 1)
+    True
+    """
+    if method == "gvf" or curve_values == "gvf" or (solver == "iterate" and init == "gvf"):
+        return True
+    if check is None:
+        return fields <= CHECK_FIELDS
+    if not isinstance(check, (bool, np.bool_)):
+        raise OptionError(f"check={check!r} is not True, False or None; pass one of those")
+    return bool(check)
 
 
 def resolve_default(method, curve_values=None, bounds=None):

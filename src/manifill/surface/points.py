@@ -134,7 +134,7 @@ def points_report(points, exact):
             "inside_faces": points.inside, "max_distance": float(s.distance.max())}
 
 
-def point_samples(V, F, points, vals, *, duplicates="error", max_distance=None, nearest_only=False):
+def point_samples(V, F, points, vals, *, duplicates="error", max_distance=None, nearest_only=False, located=None):
     """Locate sample positions on a mesh and turn them into constraints.
 
     Parameters
@@ -155,6 +155,9 @@ def point_samples(V, F, points, vals, *, duplicates="error", max_distance=None, 
     nearest_only : bool, optional
         Only the nearest vertices are needed (the partition methods): the rows
         are not built nor checked (``idx``, ``Aeq`` empty).
+    located : SurfacePoints, optional
+        ``locate_points(V, F, points, max_distance=max_distance)`` computed before
+        (a prepared reconstruction locates its points once).
 
     Returns
     -------
@@ -178,7 +181,7 @@ def point_samples(V, F, points, vals, *, duplicates="error", max_distance=None, 
     n = len(V)
     P = np.asarray(points, dtype=np.float64) if not isinstance(points, np.ndarray) else points
     vals, squeeze = as_values(vals, len(P) if P.ndim >= 1 else 0, what="vals")
-    loc = locate_points(V, F, P, max_distance=max_distance)
+    loc = locate_points(V, F, P, max_distance=max_distance) if located is None else located
     # the partition methods' samples follow the duplicates rule; for the others they only mark the points
     rule = duplicates if nearest_only else "mean"
     nearest, nearest_vals, _ = as_samples(loc.nearest_vertex, vals, n, duplicates=rule)

@@ -26,19 +26,18 @@ import numpy as np
 
 from ..errors import OptionError, SampleError
 from ..progress import tick
-from ..validate import as_mesh, as_samples
 from .curve_values import values_on_curves
+from .curve_map import LINEAR_CURVE_VALUES, curve_map
 from .energy_fill import ENERGY_METHODS, as_bounds, energy_fill
 from .fill import INITS, fill_patches, gvf_fill, start_values
 from .gradual import check_gradual, violation_message
 from .partition import partition as _partition
-from .points import is_positions, point_samples, points_report
-from .samples import weights_by_vertex
-from .methods import DEFAULT, METHODS, STEPS, check_options, resolve_default
+from .points import points_report
+from .methods import CHECK_FIELDS, DEFAULT, METHODS, STEPS, check_options, resolve_default, runs_check
+from .prepared import cached
 from ..linalg.gp import as_gp_options
 from .gp import check_gp_for, check_uncertainty, energy_uncertainty, reconstruct_gp, trust_mask
 from .reconstruction import Reconstruction
-from .surface import Surface
 
 __all__ = ["METHODS", "STEPS", "INITS", "DEFAULT", "Reconstruction", "reconstruct", "reconstruct_surface",
            "check_options", "resolve_default"]
@@ -47,7 +46,7 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
                 distance="length", levels=None, curve_values=None, solver="auto",
                 on_empty="error", duplicates="error", iteration="gauss-seidel", init="gvf", seed=0,
                 tol=None, maxiter=None, bounds=None, smoothing=None, sample_weights=None, max_distance=None,
-                gp=None, uncertainty=None, trust=None, untrusted="mask", progress=None):
+                gp=None, uncertainty=None, trust=None, untrusted="mask", check=None, progress=None):
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
 
     Parameters
@@ -148,6 +147,12 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
         the standard deviation of its samples (:attr:`Reconstruction.trusted`).
     untrusted : {'mask', 'nan'}, optional
         What ``trust`` does there: only the mask, or the value NaN too.
+    check : None or bool, optional
+        Step 1 (levels, Lipschitz constant, gradual variation: ``report['check']``)
+        per field: None runs it for up to :data:`~manifill.surface.methods.CHECK_FIELDS`
+        fields and skips it for more (``report['check_skipped']`` says so); True for
+        every field; False for none. It runs whatever this says where its levels are
+        needed (``method='gvf'``, ``curve_values='gvf'``).
     progress : callable, optional
         Called with the name of each step as it starts (e.g.
         :class:`manifill.progress.StepBar`).
@@ -171,48 +176,24 @@ def reconstruct(V, F, idx, vals, *, method=None, partition="delaunay", weights="
     >>> bool(np.allclose(r.values[idx], V[idx, 0] + V[idx, 2])), r.report["partition"]["method"]
     (True, 'delaunay')
     """
-    t0 = time.perf_counter()
-    default = method is None
-    method, curve_values, bounds = resolve_default(method, curve_values, bounds)
-    check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
-    uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if default else bounds)
-    check_gp_for(method, gp, uncertainty)
-    V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
-    n = len(V)
-    points, raw, vals_in = None, idx, vals
-    if is_positions(idx):
-        points = point_samples(V, F, idx, vals, duplicates=duplicates, max_distance=max_distance,
-                               nearest_only=method not in ENERGY_METHODS and method not in ("auto", "rbf", "gp"))
-        idx, vals, squeeze = points.nearest, points.nearest_vals, points.squeeze
-    elif max_distance is not None:
-        raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
-    else:
-        idx, vals, squeeze = as_samples(idx, vals, n, duplicates=duplicates)
-        if sample_weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
-            sample_weights = weights_by_vertex(raw, sample_weights, idx)
-    given = np.asarray(vals_in, dtype=np.float64).reshape(len(np.asarray(raw)), -1)
-    if bounds is not None:  # samples outside the bounds are named by the caller's row
-        as_bounds(bounds, given)
-    seconds = {"validate": time.perf_counter() - t0}
+    from .reconstructor import Reconstructor
 
-    tick(progress, "graph")
-    t = time.perf_counter()
-    surface = Surface.from_mesh(V, F, distance=distance, check=False)
-    seconds["graph"] = time.perf_counter() - t
-    r = reconstruct_surface(surface, idx, vals, method=method, partition=partition, weights=weights,
-                            levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
-                            iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds,
-                            smoothing=smoothing, sample_weights=sample_weights, progress=progress, seconds=seconds,
-                            points=points, gp=gp, uncertainty=uncertainty, trust=trust, untrusted=untrusted)
-    r.report["default"] = default
-    smoothed = r.report.get("harmonic", {}).get("smoothing")
-    if smoothed is not None:  # residuals in the caller's rows and shape
-        at = r.points.interpolate(r.values) if points is not None else r.values[np.asarray(raw, dtype=np.int64)]
-        smoothed["residuals"] = (at - given)[:, 0] if squeeze else at - given
-    if squeeze:
-        r.values = r.values[:, 0]
-        r.std = None if r.std is None else r.std[:, 0]
-    seconds["total"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    shape = np.shape(vals)
+    fields = 1 if len(shape) < 2 else int(shape[1])
+    tick(progress, "graph")  # the bar's first step (validation and the graph, in the Reconstructor)
+    rec = Reconstructor(V, F, idx, method=method, partition=partition, weights=weights, distance=distance,
+                        levels=levels, curve_values=curve_values, solver=solver, on_empty=on_empty,
+                        duplicates=duplicates, iteration=iteration, init=init, seed=seed, tol=tol, maxiter=maxiter,
+                        bounds=bounds, smoothing=smoothing, sample_weights=sample_weights, max_distance=max_distance,
+                        gp=gp, uncertainty=uncertainty, trust=trust, untrusted=untrusted, check=check,
+                        fields=max(fields, 1), prepare=False, progress=progress)
+    r = rec.apply(vals, progress=progress)
+    seconds = r.report["seconds"]
+    prepared = dict(rec.seconds)
+    prepared["validate"] += seconds.pop("validate", 0.0)
+    r.report["seconds"] = {**prepared, **seconds}
+    r.report["seconds"]["total"] = time.perf_counter() - t0
     return r
 
 
@@ -220,7 +201,7 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
                         levels=None, curve_values=None, solver="auto", on_empty="error",
                         iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None,
                         smoothing=None, sample_weights=None, progress=None, seconds=None, points=None, gp=None,
-                        uncertainty=None, trust=None, untrusted="mask"):
+                        uncertainty=None, trust=None, untrusted="mask", check=None, fields=None, prepared=None):
     """Steps 1-6 on a Surface and validated samples.
 
     Parameters
@@ -239,6 +220,15 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
         Samples given as positions (:func:`manifill.surface.points.point_samples`);
         ``idx`` and ``vals`` are then their nearest vertices (the partition
         methods' samples), and the energy methods constrain the points themselves.
+    check : None or bool, optional
+        Step 1 (see :func:`reconstruct`).
+    fields : int, optional
+        How many fields will share the value-independent pieces (default: ``vals``'
+        columns); with many, ``solver='auto'`` factorises and Step 4's linear curve
+        values become one sparse map.
+    prepared : Prepared, optional
+        Keeps those pieces for the next call with the same samples
+        (:mod:`manifill.surface.prepared`; what :class:`manifill.Reconstructor` passes).
     seconds : dict, optional
         Timings the caller measured before (e.g. ``validate``, ``graph``). The
         result's ``report['seconds']`` is this dict, filled in place with one
@@ -278,7 +268,8 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
         from .rbf import reconstruct_rbf
 
         return reconstruct_rbf(surface, idx, vals, levels=levels, bounds=bounds, smoothing=smoothing,
-                               sample_weights=sample_weights, progress=progress, seconds=seconds, points=points)
+                               sample_weights=sample_weights, progress=progress, seconds=seconds, points=points,
+                               check=runs_check(check, method, None, solver, init, vals.shape[1]))
     if method == "auto":  # cross-validate the default candidates, fit the best (manifill.surface.crossval)
         from .crossval import reconstruct_auto
 
@@ -301,19 +292,29 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
 
     # Steps 2-3 first when they run: the hop length of every curve bounds the Lipschitz
     # constant of Step 1 from below, which saves Step 1 a shortest-path pass
-    part, starts = None, [None] * vals.shape[1]
+    p = vals.shape[1]
+    fields = p if fields is None else fields
+    run_check = runs_check(check, method, curve_values, solver, init, p)
+    part, starts = None, [None] * p
     if method == "gvf-harmonic":
         tick(progress, "partition")
         t = time.perf_counter()
-        part = _partition(surface.V, surface.F, idx, surface.G, method=partition)
+        part = cached(prepared, "partition", lambda: _partition(surface.V, surface.F, idx, surface.G,
+                                                                method=partition))
         seconds["partition"] = time.perf_counter() - t
-        starts = part.steepest(idx, vals)
+        if run_check:
+            starts = part.steepest(idx, vals)
 
     # Step 1: levels and the gradual variation condition (hop distance), per field
     tick(progress, "check")
     t = time.perf_counter()
-    checks = [check_gradual(surface.G_hops, idx, vals[:, j], levels=levels, distance="hops", start=starts[j])
-              for j in range(vals.shape[1])]
+    checks = []
+    if run_check:
+        checks = [check_gradual(surface.G_hops, idx, vals[:, j], levels=levels, distance="hops", start=starts[j])
+                  for j in range(p)]
+    else:
+        report["check_skipped"] = (f"Step 1 was not run for {p} fields (more than {CHECK_FIELDS}); "
+                                   f"pass check=True (CLI --check) to run it for every field")
     if method == "gvf" or curve_values == "gvf":
         for c in checks:
             if not c.holds:
@@ -348,7 +349,8 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
             Aeq, beq = (points.Aeq, points.beq) if points.inside else (None, None)
         values, report["harmonic"] = energy_fill(
             surface, eidx, evals, k=ENERGY_METHODS[method], weights=weights, solver=solver, on_empty=on_empty,
-            bounds=bounds, smoothing=smoothing, sample_weights=w, tol=tol, maxiter=maxiter, Aeq=Aeq, beq=beq)
+            bounds=bounds, smoothing=smoothing, sample_weights=w, tol=tol, maxiter=maxiter, Aeq=Aeq, beq=beq,
+            fields=fields, prepared=prepared)
         seconds["harmonic"] = time.perf_counter() - t
     else:
         b, bc = (idx, vals) if points is None or method not in ENERGY_METHODS else (points.idx, points.vals)
@@ -358,7 +360,12 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
             curves, components, fixed = part.curves, part.labels, part.on_curve.copy()
             tick(progress, "curve values")
             t = time.perf_counter()
-            b, bc = values_on_curves(surface, part, idx, vals, method=curve_values, checks=checks)
+            if curve_values in LINEAR_CURVE_VALUES and fields >= idx.size:
+                # many fields: Step 4's linear curve values as one sparse map, built once
+                b, C = cached(prepared, "curve map", lambda: curve_map(surface, part, idx, curve_values))
+                bc = C @ vals
+            else:
+                b, bc = values_on_curves(surface, part, idx, vals, method=curve_values, checks=checks)
             if lohi is not None:  # curve values projected onto the bounds (the samples lie within them)
                 cols = bc if bc.ndim == 2 else bc[:, None]
                 clipped = np.clip(cols, lohi[0], lohi[1])
@@ -373,6 +380,7 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
         values, report["harmonic"] = fill_patches(
             surface, b, bc, weights=weights, solver=solver, on_empty=on_empty, iteration=iteration,
             x0=lambda: start_values(init, surface, idx, vals, checks=checks, seed=seed), tol=tol, maxiter=maxiter,
+            fields=fields, prepared=prepared,
             **({} if lohi is None or method != "gvf-harmonic" else {"lo": lohi[0], "hi": lohi[1]}))
         values = values if values.ndim == 2 else values[:, None]
         seconds["harmonic"] = time.perf_counter() - t

@@ -1,0 +1,274 @@
+"""A prepared reconstruction: one mesh and one sample set, many fields (time series, subjects, channels).
+
+:class:`Reconstructor` does once what does not depend on the sample values -- validation, the
+graph, the Laplacian, the partition (Steps 2-3), the fill's factorisation or AMG hierarchy,
+Step 4's linear map, the location of samples given as positions -- and :meth:`Reconstructor.apply`
+then runs the rest for any values, ``(k,)`` or ``(k, p)``, giving what
+:func:`manifill.reconstruct` gives for them (which is a Reconstructor applied once).
+
+Linear in the values are: ``harmonic``, ``biharmonic`` and ``triharmonic`` without bounds
+(``smoothing`` None or a number), ``gvf-harmonic`` with ``hermite`` or ``linear`` curve values
+and no bounds, ``rbf``, and ``gp`` with its range, sigma and noise given. For those
+:meth:`Reconstructor.matrix` gives the n x k interpolation map ``W`` with ``W @ vals ==
+apply(vals).values``. The rest is not linear in the values: the default (monotone curve
+values, bounded by the samples' range), any ``bounds``, ``gvf`` (levels), ``smoothing='auto'``
+(lambda chosen per field), ``auto`` (a method chosen per call) and ``gp`` with fitted
+hyperparameters; they still reuse everything value-independent.
+"""
+
+import math
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError, SampleError
+from ..validate import as_indices, as_mesh, as_samples, check_option
+from .energy_fill import ENERGY_METHODS, as_bounds
+from .gp import check_gp_for, check_uncertainty
+from .locate import locate_points
+from .methods import check_options, resolve_default
+from .points import is_positions, point_samples
+from .prepared import Prepared
+from .reconstruct import reconstruct_surface
+from .samples import weights_by_vertex
+from .surface import Surface
+
+__all__ = ["Reconstructor", "MATRIX_FORMS"]
+
+#: What :meth:`Reconstructor.matrix` returns: the pipeline's sparse map or an operator (``auto``), or either.
+MATRIX_FORMS = ("auto", "sparse", "operator")
+
+#: Unit columns per block while :meth:`Reconstructor.matrix` builds a sparse map.
+MATRIX_BLOCK = 64
+
+
+class Reconstructor:
+    """Reconstruct many fields on one mesh from one sample set: prepared once, applied to any values.
+
+    Parameters
+    ----------
+    V, F, idx
+        As for :func:`manifill.reconstruct` (vertex indices or positions).
+    method, partition, weights, distance, levels, curve_values, solver, on_empty, duplicates, iteration, init,
+    seed, tol, maxiter, bounds, smoothing, sample_weights, max_distance, gp, uncertainty, trust, untrusted, check
+        As for :func:`manifill.reconstruct`.
+    fields : int, optional
+        How many fields you will reconstruct in all (a hint; None: many). With
+        many, ``solver='auto'`` factorises the fill when the factors fit in memory
+        (a pair of triangular solves per field, against a CG run), and Step 4's
+        linear curve values are one sparse map.
+    prepare : bool, optional
+        Build the solver now (True) or at the first :meth:`apply`.
+
+    Attributes
+    ----------
+    surface : Surface
+    samples : int
+        Rows of the values :meth:`apply` takes.
+    linear : bool
+        Whether the result is linear in the values (see the module docstring).
+    seconds : dict
+        Time spent preparing, by step.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> V, F = icosphere(3)
+    >>> idx = np.arange(0, 642, 40)
+    >>> rec = Reconstructor(V, F, idx, method="harmonic")
+    >>> X = rec.apply(np.column_stack([V[idx, 0], V[idx, 2]])).values     # two fields, (642, 2)
+    >>> W = rec.matrix()                                                  # (642, 17) operator
+    >>> bool(np.allclose(W @ V[idx, 0], X[:, 0]))
+    True
+    """
+
+    def __init__(self, V, F, idx, *, method=None, partition="delaunay", weights="cotan", distance="length",
+                 levels=None, curve_values=None, solver="auto", on_empty="error", duplicates="error",
+                 iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None, smoothing=None,
+                 sample_weights=None, max_distance=None, gp=None, uncertainty=None, trust=None, untrusted="mask",
+                 check=None, fields=None, prepare=True, progress=None):
+        t0 = time.perf_counter()
+        self.default = method is None
+        method, curve_values, bounds = resolve_default(method, curve_values, bounds)
+        check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
+        check_option("duplicates", duplicates, ("error", "mean"))
+        uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if self.default else bounds)
+        check_gp_for(method, gp, uncertainty)
+        if fields is not None and not (isinstance(fields, (int, np.integer)) and fields >= 1):
+            raise OptionError(f"fields={fields!r} is not a whole number >= 1 (how many fields you will "
+                              f"reconstruct); pass one, or None for many")
+        V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
+        n = len(V)
+        self.method, self.bounds, self.duplicates, self.max_distance = method, bounds, duplicates, max_distance
+        self._located, self._raw, self._weights = None, idx, sample_weights
+        if is_positions(idx):
+            P = np.asarray(idx, dtype=np.float64)
+            self._located = locate_points(V, F, P, max_distance=max_distance)
+            self.samples = len(P)
+        elif max_distance is not None:
+            raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
+        else:
+            self._raw = as_indices(idx, n, what="idx", unique=False)
+            self.samples = self._raw.size
+            if sample_weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
+                self._weights = weights_by_vertex(self._raw, sample_weights, np.unique(self._raw))
+        self.seconds = {"validate": time.perf_counter() - t0}
+        t = time.perf_counter()
+        self.surface = Surface.from_mesh(V, F, distance=distance, check=False)
+        self.seconds["graph"] = time.perf_counter() - t
+        self.fields = math.inf if fields is None else int(fields)
+        self._options = dict(method=method, partition=partition, weights=weights, levels=levels,
+                             curve_values=curve_values, solver=solver, on_empty=on_empty, iteration=iteration,
+                             init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds, smoothing=smoothing,
+                             gp=gp, uncertainty=uncertainty, trust=trust, untrusted=untrusted, check=check)
+        self.linear, self._why = _linearity(method, curve_values, bounds, smoothing, gp, trust, untrusted)
+        self._prepared = Prepared()
+        if prepare:
+            self._prepare(progress)
+
+    def _prepare(self, progress):
+        """Build the value-independent pieces by one run on zero values, without Step 1, bounds or the std."""
+        if self.method not in ("gvf-harmonic",) + tuple(ENERGY_METHODS) or self._options["smoothing"] is not None:
+            return
+        t = time.perf_counter()
+        zeros = np.zeros((self.samples, 1))
+        self._run(zeros, self._plain(bounds=None), "mean")
+        self.seconds["prepare"] = time.perf_counter() - t
+
+    def _plain(self, **more):
+        """The options without Step 1, the std or the trust mask (the pieces values do not need)."""
+        gp = self._options["gp"] if self.method == "gp" else None
+        return dict(self._options, uncertainty=False, trust=None, check=False, gp=gp, **more)
+
+    def _samples(self, vals, duplicates):
+        """``(idx, vals, points, squeeze, given)`` for values in the caller's rows."""
+        arr = np.asarray(vals, dtype=np.float64) if not isinstance(vals, np.ndarray) else vals
+        if arr.ndim not in (1, 2) or arr.shape[0] != self.samples:
+            raise SampleError(f"vals has shape {arr.shape}, but this Reconstructor was prepared for "
+                              f"{self.samples} samples; pass ({self.samples},) or ({self.samples}, p) values, one "
+                              f"row per sample in the order given")
+        given = arr.reshape(self.samples, -1)
+        if self._located is not None:
+            V, F = self.surface.V, self.surface.F
+            nearest_only = self.method not in ENERGY_METHODS and self.method not in ("auto", "rbf", "gp")
+            points = point_samples(V, F, np.asarray(self._raw, dtype=np.float64), arr, duplicates=duplicates,
+                                   max_distance=self.max_distance, nearest_only=nearest_only, located=self._located)
+            return points.nearest, points.nearest_vals, points, points.squeeze, given
+        idx, v, squeeze = as_samples(self._raw, arr, self.surface.n, duplicates=duplicates)
+        return idx, v, None, squeeze, given
+
+    def _run(self, vals, options, duplicates, progress=None):
+        t0 = time.perf_counter()
+        idx, v, points, squeeze, given = self._samples(vals, duplicates)
+        if options["bounds"] is not None:  # samples outside the bounds are named by the caller's row
+            as_bounds(options["bounds"], given)
+        seconds = {"validate": time.perf_counter() - t0}
+        r = reconstruct_surface(self.surface, idx, v, sample_weights=self._weights, progress=progress,
+                                seconds=seconds, points=points, fields=self.fields, prepared=self._prepared,
+                                **options)
+        r.report["default"] = self.default
+        smoothed = r.report.get("harmonic", {}).get("smoothing")
+        if smoothed is not None:  # residuals in the caller's rows and shape
+            at = r.points.interpolate(r.values) if points is not None else r.values[self._raw]
+            smoothed["residuals"] = (at - given)[:, 0] if squeeze else at - given
+        if squeeze:
+            r.values = r.values[:, 0]
+            r.std = None if r.std is None else r.std[:, 0]
+        return r
+
+    def apply(self, vals, *, progress=None):
+        """The reconstruction of ``vals``: what :func:`manifill.reconstruct` gives for them.
+
+        Parameters
+        ----------
+        vals : (k,) or (k, p) array_like of float
+            One row per sample, in the order given to the constructor; one column per field.
+        progress : callable, optional
+            Called with the name of each step as it starts.
+
+        Returns
+        -------
+        Reconstruction
+            ``report['seconds']`` holds this call's steps (the preparation's are in :attr:`seconds`).
+
+        Raises
+        ------
+        SampleError
+            Values with another number of rows, NaN, conflicting duplicates, values outside ``bounds``.
+        """
+        return self._run(vals, self._options, self.duplicates, progress)
+
+    def matrix(self, *, form="auto"):
+        """The interpolation map ``W`` (n x k) with ``W @ vals == apply(vals).values``, for the linear methods.
+
+        Parameters
+        ----------
+        form : {'auto', 'sparse', 'operator'}, optional
+            ``sparse``: a ``scipy.sparse.csr_array``, built column block by column block
+            (costs ``k`` fields' solves; exact zeros dropped; the pipeline's map is
+            sparse, each vertex depending on the samples around its patch); ``operator``:
+            a ``scipy.sparse.linalg.LinearOperator`` that calls :meth:`apply` (the
+            energy methods' maps are dense: every vertex depends on every sample);
+            ``auto``: sparse for ``gvf-harmonic``, an operator otherwise.
+
+        Returns
+        -------
+        scipy.sparse.csr_array or scipy.sparse.linalg.LinearOperator
+
+        Raises
+        ------
+        OptionError
+            The method, as configured, is not linear in the values (the message says why).
+        ResourceError
+            A sparse map whose blocks would not fit in memory.
+        """
+        from scipy.sparse.linalg import LinearOperator
+
+        check_option("form", form, MATRIX_FORMS)
+        if not self.linear:
+            raise OptionError(f"this reconstruction is not linear in the sample values ({self._why}), so it has no "
+                              f"matrix; use apply(vals), or a linear configuration (e.g. method='gvf-harmonic' with "
+                              f"curve_values='hermite', or method='harmonic', without bounds)")
+        n, k = self.surface.n, self.samples
+        options = self._plain()
+        if form == "auto":
+            form = "sparse" if self.method == "gvf-harmonic" else "operator"
+        if form == "operator":
+            def matmat(X):
+                return np.asarray(self._run(np.asarray(X).reshape(k, -1), options, "mean").values).reshape(n, -1)
+
+            return LinearOperator((n, k), matvec=lambda x: matmat(x).ravel(), matmat=matmat, dtype=np.float64)
+        from ..memory import check_fits
+
+        check_fits(8.0 * n * min(MATRIX_BLOCK, k) * 2, f"a block of {min(MATRIX_BLOCK, k)} columns of the {n:,} x "
+                   f"{k:,} map", "use form='operator'")
+        blocks = []
+        for start in range(0, k, MATRIX_BLOCK):
+            E = np.zeros((k, min(MATRIX_BLOCK, k - start)))
+            E[np.arange(start, start + E.shape[1]), np.arange(E.shape[1])] = 1.0
+            X = np.asarray(self._run(E, options, "mean").values).reshape(n, -1)
+            blocks.append(sp.csr_array(np.where(np.isnan(X), 0.0, X)))
+        W = sp.csr_array(sp.hstack(blocks, format="csr"))
+        W.eliminate_zeros()
+        return W
+
+
+def _linearity(method, curve_values, bounds, smoothing, gp, trust, untrusted):
+    """``(linear, why not)`` for a configuration (the module docstring's list)."""
+    if trust is not None and untrusted == "nan":
+        return False, "trust with untrusted='nan' blanks values by their std"
+    if bounds is not None:
+        return False, "bounds make an active set, which depends on the values"
+    if method == "gvf-harmonic":
+        return (curve_values in ("hermite", "linear"),
+                f"curve_values={curve_values!r} is not linear in the values; 'hermite' and 'linear' are")
+    if method in ENERGY_METHODS or method == "rbf":
+        return smoothing != "auto", "smoothing='auto' picks lambda per field"
+    if method == "gp":
+        from ..linalg.gp import as_gp_options
+
+        o = as_gp_options(gp)
+        given = not any(isinstance(x, str) for x in (o.range, o.sigma, o.noise))
+        return given, "the gp's hyperparameters are fitted per call; give gp={'range', 'sigma', 'noise'}"
+    return False, f"method={method!r} is not linear in the values"

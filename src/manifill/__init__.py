@@ -49,6 +49,7 @@ from .surface.polyharmonic import PolyharmonicSolver, biharmonic
 from .surface.partition import Partition, partition
 from .surface.reconstruct import Reconstruction, reconstruct, reconstruct_surface
 from .surface.reconstructor import Reconstructor
+from .io.stream import reconstruct_series
 from .surface.surface import Surface
 
 __all__ = [
@@ -56,7 +57,7 @@ __all__ = [
     "ManifillError", "MeshError", "SampleError", "OptionError", "SolveError", "ReadError", "WriteError",
     "ResourceError",
     # surfaces: the pipeline (Steps 1-6) and its steps
-    "reconstruct", "Reconstruction", "Reconstructor", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
+    "reconstruct", "Reconstruction", "Reconstructor", "reconstruct_series", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
     "CrossValidation", "locate_points", "SurfacePoints", "GPOptions", "gp_tets", "gp_voxels",
     # the harmonic problem and the operators

@@ -241,12 +241,12 @@ def err(msg):
     return 2
 
 
-def surface_outputs(args, pictures=True):
-    """-o (and --render/--html) of a surface command, checked before any work."""
+def surface_outputs(args, pictures=True, extra=()):
+    """-o (and --render/--html) of a surface command, checked before any work (``extra``: more -o suffixes)."""
     from ..io import MESH_FORMATS, VALUE_FORMATS
 
     meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
-    outs = [("-o", args.output, meshes + VALUE_FORMATS)]
+    outs = [("-o", args.output, meshes + VALUE_FORMATS + tuple(extra))]
     if pictures:
         outs += [("--render", getattr(args, "render", None), (".png",)),
                  ("--html", getattr(args, "html", None), (".html",))]

@@ -33,7 +33,8 @@ def sample_args(s):
 def fill_args(s):
     """-o OUT and the options of the harmonic fill, shared by harmonic and reconstruct."""
     s.add_argument("-o", "--output", required=True,
-                   help="output: .vtu/.vtp/.vtk/.ply (mesh with named fields) or .csv/.npy (values)")
+                   help="output: .vtu/.vtp/.vtk/.ply (mesh with named fields) or .csv/.npy (values); for "
+                        "reconstruct also a time series: .xdmf (with .h5), .pvd (with a folder of .vtu), .h5")
     s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
     s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
@@ -58,6 +59,16 @@ def output_args(s):
     g.add_argument("-v", "--verbose", action="store_true", help="also print the time of every step")
 
 
+
+
+def series_args(s):
+    """--check and --chunk: many fields, and time series (an .xdmf, .pvd or .h5 output)."""
+    s.add_argument("--check", action="store_true",
+                   help="run Step 1 (the gradual variation report) for every field; by default it runs for up to "
+                        "10 fields")
+    s.add_argument("--chunk", type=int, default=None, metavar="T",
+                   help="time series: reconstruct and write this many time steps at a time (default: by memory, "
+                        "about 64 MB of values per chunk)")
 
 
 def energy_args(s):

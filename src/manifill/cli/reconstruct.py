@@ -1,10 +1,16 @@
-"""``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6)."""
+"""``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6); a time series with
+``-o OUT.xdmf|.pvd|.h5`` (:mod:`manifill.cli.series`)."""
+
+from pathlib import Path
+
+from ..errors import OptionError
 
 from ..surface.energy_fill import ENERGY_METHODS
 from ..surface.reconstruct import STEPS
 from .common import (bounds_arg, check_names, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
                      print_uncertainty, std_names, surface_outputs, uncertainty_opts, wants_std, write_surface)
-from .options import energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args, uncertainty_args
+from .options import (energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args, series_args,
+                      uncertainty_args)
 
 __all__ = ["add_parser", "run"]
 
@@ -21,6 +27,7 @@ def add_parser(sub):
     pipeline_args(s)
     energy_args(s)
     uncertainty_args(s)
+    series_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
     picture_args(s)
@@ -33,10 +40,23 @@ def run(args):
     from ..io import VALUE_FORMATS, write_values
     from ..surface.reconstruct import reconstruct
 
-    out = surface_outputs(args)
+    from .series import SERIES_OUTPUTS, is_series, run_series
+
+    out = surface_outputs(args, extra=SERIES_OUTPUTS)
     std_opts = uncertainty_opts(args)
     # the energy methods and gp constrain positions exactly where they are, the others use the nearest vertices
     exact = args.method in ENERGY_METHODS or args.method == "gp"
+    if args.chunk is not None and args.chunk < 1:
+        raise OptionError(f"--chunk {args.chunk}: pass a number of time steps >= 1")
+    if is_series(args.samples, out, args.chunk):
+        if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
+            raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
+                              f"(-o OUT.xdmf)")
+        options = dict(method=args.method, partition=args.partition, weights=args.weights, distance=args.distance,
+                       levels=levels(args.levels), curve_values=args.curve_values, solver=args.solver,
+                       on_empty=args.on_empty, duplicates=args.duplicates, bounds=bounds_arg(args.bounds),
+                       smoothing=smoothing_arg(args.smoothing), **std_opts)
+        return run_series(args, out, options, exact)
     V, F, S = load(args, keep_points=exact)
     check_names(args, S, out)
     if args.subdivide:
@@ -53,7 +73,7 @@ def run(args):
                         distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
                         solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates,
                         bounds=bounds_arg(args.bounds), smoothing=smoothing_arg(args.smoothing), progress=bar,
-                        **std_opts)
+                        check=True if args.check else None, **std_opts)
     finally:
         bar.close()
     X = r.fields()

@@ -1,0 +1,86 @@
+"""``manifill reconstruct MESH SAMPLES -o OUT.xdmf|.pvd|.h5``: a time series, chunk by chunk of time steps.
+
+The samples hold one value per time step (:func:`manifill.io.series.read_series`: many value
+columns, a ``time`` column, or one file per step); a :class:`manifill.Reconstructor` is prepared
+once and applied to a chunk of steps at a time, each chunk written at once
+(:class:`manifill.io.series_write.SeriesWriter`), so memory does not grow with the number of
+steps. The output is all or nothing: an error or Ctrl-C leaves no file.
+"""
+
+import glob
+from pathlib import Path
+
+__all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
+
+#: Outputs that make ``reconstruct`` write a time series (``.npy`` too, when the samples are one).
+SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5")
+
+
+def is_series(samples, out, chunk=None):
+    """Whether ``reconstruct`` reads ``samples`` as a time series: a series output, ``--chunk``, a folder or a
+    glob pattern of per-time files, an NPZ with ``times``, or a CSV whose first value column is ``time``."""
+    import zipfile
+
+    from ..io.series import TIME_COLUMNS
+
+    p = Path(samples)
+    if Path(out).suffix.lower() in SERIES_OUTPUTS or p.is_dir() or chunk is not None:
+        return True
+    if p.suffix.lower() == ".npz" and p.is_file():
+        try:
+            with zipfile.ZipFile(p) as z:
+                return "times.npy" in z.namelist()
+        except (OSError, zipfile.BadZipFile):
+            return False  # the reader says what is wrong with it
+    if not p.exists() and any(c in str(samples) for c in "*?["):
+        return bool(glob.glob(str(samples)))
+    if p.suffix.lower() == ".csv" and p.is_file():
+        with open(p, encoding="utf-8", errors="replace") as fh:
+            head = [h.strip().lower() for h in fh.readline().split(",")]
+        first = 1 if head and head[0] in ("vertex", "idx", "index", "vertex_id", "id") else 3
+        return len(head) > first and head[first] in TIME_COLUMNS
+    return False
+
+
+def run_series(args, out, options, exact):
+    """Read the series, then :func:`manifill.io.stream.reconstruct_series`; print a summary."""
+    from ..errors import OptionError
+    from ..io import read_mesh_file
+    from ..io.series import read_series
+    from ..io.stream import chunk_size, reconstruct_series
+    from ..progress import StepBar
+    from .common import print_time
+
+    for flag in ("render", "html", "subdivide", "clean"):
+        if getattr(args, flag, None):
+            raise OptionError(f"--{flag} is not available for a time series; leave it out (open the series in "
+                              f"ParaView instead)")
+    if options.get("uncertainty") or options.get("trust") is not None:
+        raise OptionError("a time series is written without the std; leave --uncertainty and --trust out")
+    mesh = read_mesh_file(args.mesh)
+    V, F = mesh.V, mesh.F
+    series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
+                         vertex_numbering=mesh.vertex_numbering, keep_points=exact)
+    S, T = series.samples, series.steps
+    where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
+                                                                         max_distance=args.max_snap)
+    step = chunk_size(len(V), T, args.chunk)
+    chunks = -(-T // step)
+    print(f"{len(V):,} vertices, {len(where['vals']):,} samples, {T:,} time steps of {series.names[0]!r} "
+          f"({series.times[0]:g} .. {series.times[-1]:g}), in {chunks} chunk(s) of {step}")
+    bar = StepBar(chunks, enabled=not args.quiet, desc="manifill reconstruct (time steps)")
+    try:
+        done = reconstruct_series(V, F, **where, path=out, times=series.times, name=series.names[0], chunk=step,
+                                  progress=bar, check=True if args.check else None, **options)
+    finally:
+        bar.close()
+    rep = done["report"]
+    if rep.get("check"):
+        bad = sum(not c["holds"] for c in rep["check"])
+        print(f"step 1 (the last chunk): gradual variation fails at {bad} of its steps" if bad else
+              "step 1 (the last chunk): gradual variation holds")
+    print(f"method: {rep['method']}" + (" (the default)" if rep.get("default") else "")
+          + (f", solver={rep['harmonic'].get('solver')}" if "harmonic" in rep else ""))
+    print_time(args, done["seconds"])
+    print(f"wrote {out} ({T:,} steps)")
+    return 0

@@ -57,7 +57,8 @@ __all__ = [
     "ManifillError", "MeshError", "SampleError", "OptionError", "SolveError", "ReadError", "WriteError",
     "ResourceError",
     # surfaces: the pipeline (Steps 1-6) and its steps
-    "reconstruct", "Reconstruction", "Reconstructor", "reconstruct_series", "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
+    "reconstruct", "Reconstruction", "Reconstructor", "reconstruct_series",
+    "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
     "CrossValidation", "locate_points", "SurfacePoints", "GPOptions", "gp_tets", "gp_voxels",
     # the harmonic problem and the operators

@@ -88,7 +88,7 @@ def test_long_csv_and_per_time_files(tmp_path, capsys, case):
     long.write_text("vertex,time,temp\n" + "\n".join(rows) + "\n")
     folder = tmp_path / "steps"
     folder.mkdir()
-    for j, t in enumerate(TIMES):
+    for j in range(T):
         (folder / f"temp_{j:03d}.csv").write_text(
             "vertex,temp\n" + "".join(f"{i},{float(v)!r}\n" for i, v in zip(IDX, VALS[:, j])))
     want = expected(method="harmonic")

@@ -194,8 +194,9 @@ def test_step_1_runs_per_field_only_when_asked():
 
 def test_many_fields_factorise_and_block_the_solves(monkeypatch):
     assert backends.auto_backend(10**5, 7 * 10**5) == "amg"
-    assert backends.auto_backend(10**5, 7 * 10**5, fields=backends.AUTO_DIRECT_FIELDS) == "direct"
-    assert backends.auto_backend(10**5, 7 * 10**5, fields=backends.AUTO_DIRECT_FIELDS - 1) == "amg"
+    assert backends.auto_backend(10**5, 7 * 10**5, fields=backends.AUTO_DIRECT_FIELDS) == "amg"  # one block
+    assert backends.auto_backend(10**5, 7 * 10**5, fields=backends.AUTO_DIRECT_FIELDS, largest=5000) == "direct"
+    assert backends.auto_backend(10**5, 7 * 10**5, fields=backends.AUTO_DIRECT_FIELDS - 1, largest=5000) == "amg"
     L = manifill.laplacian(V, F)
     K = sp.csr_matrix(L[1:, 1:] + sp.eye(N - 1) * 1e-3)
     R = np.random.default_rng(0).standard_normal((N - 1, 37))

@@ -187,19 +187,24 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     if linear is not None:
         c = np.asarray(linear, dtype=np.float64)
         C[q.unknown] = (c[:, None] if c.ndim == 1 else c)[q.unknown]
-    B = None
-    if beq is not None:
-        B = np.asarray(beq, dtype=np.float64)
+    B = None if beq is None else np.asarray(beq, dtype=np.float64)
+    if B is not None:
         B = np.broadcast_to(B[:, None] if B.ndim == 1 else B, (B.shape[0], p))
     mu = q.eq_multipliers
     amax = float(np.abs(q.A.data).max()) if q.A.nnz else 0.0
     report = {"lo": [None if np.isinf(v) else float(v) for v in lo],
               "hi": [None if np.isinf(v) else float(v) for v in hi],
-              "iterations": [], "setups": [], "cg_iterations": [], "active_lo": [], "active_hi": [],
+              **{key: [0] * p for key in ("iterations", "setups", "cg_iterations", "active_lo", "active_hi")},
               "kkt_residual": 0.0, "violation": 0.0}
+    scales = np.array([max([float(np.abs(vals[:, j]).max()) if vals.size else 0.0,
+                            *[abs(v) for v in (lo[j], hi[j]) if np.isfinite(v)]]) or 1.0 for j in range(p)])
+    inside = _within(q, X, lo, hi, TOL.bound_rtol * scales)
+    if q.Aeq is None and inside.any():  # fields already within their bounds: no face to solve, all at once
+        _settle(q, X, C, lo, hi, np.flatnonzero(inside), report)
     for j in range(p):
-        finite = [abs(v) for v in (lo[j], hi[j]) if np.isfinite(v)]
-        scale = max([float(np.abs(vals[:, j]).max()) if vals.size else 0.0, *finite]) or 1.0
+        if q.Aeq is None and inside[j]:
+            continue
+        scale = scales[j]
         tol_x = TOL.bound_rtol * scale
         tol_g = TOL.bound_rtol * (amax * scale + float(np.abs(C[:, j]).max()))
         faces = _Faces(q, vals[:, j], lo[j], hi[j], C[:, j], reuse=reuse)
@@ -220,13 +225,28 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
         res = max(float(np.abs(g[free]).max(initial=0.0)),
                   float(np.max(-g[active[~at_hi]], initial=0.0)), float(np.max(g[active[at_hi]], initial=0.0)))
         report["kkt_residual"] = max(report["kkt_residual"], res)
-        report["iterations"].append(its)
-        report["setups"].append(faces.setups)
-        report["cg_iterations"].append(faces.cg_iterations)
-        report["active_lo"].append(int(np.count_nonzero(~at_hi)))
-        report["active_hi"].append(int(np.count_nonzero(at_hi)))
+        report["iterations"][j], report["setups"][j] = its, faces.setups
+        report["cg_iterations"][j] = faces.cg_iterations
+        report["active_lo"][j], report["active_hi"][j] = int(np.count_nonzero(~at_hi)), int(np.count_nonzero(at_hi))
         X[:, j] = x
     return X, report
+
+
+def _within(q, X, lo, hi, tol):
+    """(p,) bool: the fields whose values at the free indices lie within their bounds (to ``tol``)."""
+    with np.errstate(invalid="ignore"):
+        return ~((X[q.unknown] < lo - tol) | (X[q.unknown] > hi + tol)).any(axis=0)
+
+
+def _settle(q, X, C, lo, hi, cols, report):
+    """The loop's clip and report for the fields ``cols``, within their bounds already (nothing active), at once."""
+    U = q.unknown
+    XU = X[np.ix_(U, cols)]
+    report["violation"] = max(report["violation"], float(np.max(lo[cols] - XU, initial=0.0)),
+                              float(np.max(XU - hi[cols], initial=0.0)))
+    X[np.ix_(U, cols)] = np.clip(XU, lo[cols], hi[cols])
+    G = q.A @ np.nan_to_num(X[:, cols], nan=0.0) + C[:, cols]
+    report["kkt_residual"] = max(report["kkt_residual"], float(np.abs(G[U]).max(initial=0.0)))
 
 
 class _Faces:

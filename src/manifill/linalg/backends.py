@@ -38,7 +38,8 @@ from .threads import workers
 from ..tolerances import TOL
 from ..validate import check_option
 
-__all__ = ["SOLVERS", "ITERATIONS", "AUTO_DIRECT_FIELDS", "auto_backend", "solve_block", "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver",
+__all__ = ["SOLVERS", "ITERATIONS", "AUTO_DIRECT_FIELDS", "auto_backend", "solve_block",
+           "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver",
            "direct_factoriser", "DIRECT_ENV"]
 
 SOLVERS = ("auto", "direct", "amg", "iterate")
@@ -46,8 +47,8 @@ ITERATIONS = ("gauss-seidel", "jacobi")
 
 #: ``solver="auto"`` factorises systems with at most this many unknowns and uses AMG above.
 AUTO_DIRECT_MAX = 20_000
-#: ... and larger ones too when at least this many fields share the system and its factors fit in memory: one
-#: factorisation and a pair of triangular solves per field beat a CG run per field (measured at 163,842
+#: ... and larger ones made of such blocks when at least this many fields share the system and its factors fit:
+#: one factorisation and a pair of triangular solves per field beat a CG run per field (measured at 163,842
 #: vertices: factorising the pipeline's fill ~1 s, 11-20 ms per field, against ~0.15 s per field for AMG).
 AUTO_DIRECT_FIELDS = 8
 #: Right-hand sides are handed to the factorisation in blocks of at most this many bytes: SuperLU's solve
@@ -423,23 +424,31 @@ def solve_block(rows):
     return int(max(1, min(64, SOLVE_BLOCK_BYTES // (8 * max(int(rows), 1)))))
 
 
-def auto_backend(unknowns, nnz, fields=1, dim=2):
+def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None):
     """The backend ``solver='auto'`` picks for a system of ``unknowns`` shared by ``fields`` fields.
 
-    A factorisation up to :data:`AUTO_DIRECT_MAX` unknowns; above, for at least
-    :data:`AUTO_DIRECT_FIELDS` fields when its factors fit in the memory available
-    (:func:`manifill.memory.lu_memory`); AMG-preconditioned CG otherwise.
+    A factorisation up to :data:`AUTO_DIRECT_MAX` unknowns. Above, for at least
+    :data:`AUTO_DIRECT_FIELDS` fields, when the system falls apart into independent
+    blocks (``largest``: the most unknowns of one, e.g. the pipeline's largest patch) of
+    at most :data:`AUTO_DIRECT_MAX` unknowns and the factors fit in the memory available
+    (:func:`manifill.memory.lu_memory`): the factors of small blocks fill in little, and
+    each field costs a pair of triangular solves. AMG-preconditioned CG otherwise (one
+    connected system of 163k unknowns filled in to 36M entries, measured: its solves cost
+    as much as CG's).
 
     Examples
     --------
-    >>> auto_backend(5_000, 35_000), auto_backend(100_000, 700_000), auto_backend(100_000, 700_000, fields=100)
-    ('direct', 'amg', 'direct')
+    >>> auto_backend(5_000, 35_000), auto_backend(100_000, 700_000, fields=100)
+    ('direct', 'amg')
+    >>> auto_backend(100_000, 700_000, fields=100, largest=3_000), auto_backend(100_000, 700_000, largest=3_000)
+    ('direct', 'amg')
     """
     from ..memory import available_bytes
 
     if unknowns <= AUTO_DIRECT_MAX:
         return "direct"
-    if fields >= AUTO_DIRECT_FIELDS and lu_memory(unknowns, nnz, dim=dim) <= 0.5 * available_bytes():
+    small = (unknowns if largest is None else largest) <= AUTO_DIRECT_MAX
+    if fields >= AUTO_DIRECT_FIELDS and small and lu_memory(unknowns, nnz, dim=dim) <= 0.5 * available_bytes():
         return "direct"
     return "amg"
 

@@ -123,7 +123,7 @@ def start_values(init, surface, idx, vals, *, checks=None, seed=0):
 
 def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error",
                  iteration="gauss-seidel", x0=None, tol=None, maxiter=None, lo=None, hi=None, fields=None,
-                 prepared=None):
+                 largest=None, prepared=None):
     """Steps 5-6: the harmonic fill with the values at ``idx`` fixed.
 
     Parameters
@@ -154,6 +154,8 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
         How many fields will share this fixed set (default: ``vals``' columns);
         with many, ``solver='auto'`` factorises larger systems too
         (:func:`manifill.linalg.backends.auto_backend`).
+    largest : int, optional
+        The most unknowns of one patch (the partition's largest), when known.
     prepared : Prepared, optional
         Keeps the solver for the next call with the same fixed set
         (:mod:`manifill.surface.prepared`).
@@ -188,7 +190,7 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
         L = surface.laplacian(weights)
         backend = solver
         if solver == "auto" and fields >= AUTO_DIRECT_FIELDS:  # many fields: a factorisation if it fits
-            backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields)
+            backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields, largest=largest)
         hs = HarmonicSolver.from_laplacian(L, idx, solver=backend, on_empty=on_empty, iteration=iteration,
                                            tol=tol, maxiter=maxiter,
                                            symmetric_pattern=weights in ("uniform", "cotan"))

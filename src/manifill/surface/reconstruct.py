@@ -381,6 +381,7 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
             surface, b, bc, weights=weights, solver=solver, on_empty=on_empty, iteration=iteration,
             x0=lambda: start_values(init, surface, idx, vals, checks=checks, seed=seed), tol=tol, maxiter=maxiter,
             fields=fields, prepared=prepared,
+            largest=max(part.report["patch_sizes"] or [0]) if part is not None else None,
             **({} if lohi is None or method != "gvf-harmonic" else {"lo": lohi[0], "hi": lohi[1]}))
         values = values if values.ndim == 2 else values[:, None]
         seconds["harmonic"] = time.perf_counter() - t

@@ -84,14 +84,14 @@ class DirectSolver:
 
     name = "direct"
 
-    def __init__(self, A):
+    def __init__(self, A, factoriser=None):
         self.shape = A.shape
         n = A.shape[0]
         if n:
             check_fits(lu_memory(n, A.nnz, dim=1 if A.nnz <= 3.5 * n else 2),
                        f"the sparse LU factorisation of {n:,} unknowns (solver='direct')",
                        "use solver='amg' (CLI --solver amg, or --fill-solver amg for a volume fill)")
-        self.factoriser, self._lu = factorise(A) if n else ("superlu", None)
+        self.factoriser, self._lu = factorise(A, factoriser) if n else ("superlu", None)
 
     def solve(self, R, x0=None):
         """Solve ``A X = R``.
@@ -453,7 +453,8 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None):
     return "amg"
 
 
-def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel", tol=None, maxiter=None):
+def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel", tol=None, maxiter=None,
+                       factoriser=None):
     """Build the solver object for ``A`` named by ``solver``.
 
     Parameters
@@ -470,6 +471,8 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
         Change tolerance for ``iterate``.
     maxiter : int, optional
         Iteration cap for ``amg`` and ``iterate``.
+    factoriser : {None, 'superlu', 'pardiso'}, optional
+        What factorises for ``direct`` (see :func:`manifill.linalg.factorise.factorise`).
 
     Returns
     -------
@@ -483,7 +486,7 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
     if solver == "auto":
         solver = "direct" if A.shape[0] <= AUTO_DIRECT_MAX else "amg"
     if solver == "direct":
-        obj = DirectSolver(A)
+        obj = DirectSolver(A, factoriser)
     elif solver == "amg":
         obj = AMGSolver(A, rtol=rtol, maxiter=maxiter)
     else:

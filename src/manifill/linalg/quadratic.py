@@ -97,6 +97,9 @@ class QuadraticSolver:
         then factorises).
     what : str, optional
         The name of ``A`` in error messages.
+    factoriser : {None, 'superlu', 'pardiso'}, optional
+        What factorises for ``direct`` (None: :func:`manifill.linalg.factorise.factorise`'s choice);
+        many right-hand sides on small blocks are faster with SuperLU.
 
     Attributes
     ----------
@@ -151,13 +154,13 @@ class QuadraticSolver:
     """
 
     def __init__(self, A, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None,
-                 maxiter=None, symmetric_pattern=False, Aeq=None, what="A"):
+                 maxiter=None, symmetric_pattern=False, Aeq=None, what="A", factoriser=None):
         check_option("on_empty", on_empty, ON_EMPTY + ("solve",))
         A = as_laplacian(A, what=what)
         if Aeq is not None:
             Aeq = self._equality_rows(Aeq, A.shape[0], solver)
         self._options = {"solver": solver, "on_empty": on_empty, "iteration": iteration, "tol": tol,
-                         "maxiter": maxiter, "symmetric_pattern": symmetric_pattern}
+                         "maxiter": maxiter, "symmetric_pattern": symmetric_pattern, "factoriser": factoriser}
         if Aeq is not None and np.size(idx) == 0:  # the rows alone may anchor every component
             idx = np.zeros(0, dtype=np.int64)
         else:
@@ -214,7 +217,7 @@ class QuadraticSolver:
         return Aeq
 
     def _reduce(self, A, idx, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None, maxiter=None,
-                symmetric_pattern=False, Aeq=None):
+                symmetric_pattern=False, Aeq=None, factoriser=None):
         """The Dirichlet reduction: components, ``A_II``, ``A_Ib``, the backend, the report."""
         n = A.shape[0]
         self.idx = idx
@@ -249,16 +252,41 @@ class QuadraticSolver:
         known = self.empty.copy()
         known[self.idx] = True
         self.unknown = np.flatnonzero(~known)
-        rows = A[self.unknown]
-        self._A_II = rows[:, self.unknown].tocsr()
-        self._A_Ib = rows[:, self.idx].tocsr()
+        # A_II and A_Ib in one pass over the unknowns' rows, columns renumbered by one map: unknown j -> its
+        # number, fixed j -> -2 - its place in idx, empty j -> -1; rows keep their order, so sorted stays sorted
+        N, k = self.unknown.size, self.idx.size
+        it = np.int32 if max(A.nnz, n) < 2**31 - 1 else np.int64
+        code = np.full(n, -1, dtype=it)
+        code[self.unknown] = np.arange(N, dtype=it)
+        code[self.idx] = -2 - np.arange(k, dtype=it)
+        starts = A.indptr[self.unknown]
+        lens = (A.indptr[self.unknown + 1] - starts).astype(it, copy=False)
+        row_ptr = np.zeros(N + 1, dtype=np.int64)
+        np.cumsum(lens, out=row_ptr[1:])
+        at = slice(None) if N == n else (  # the unknown rows' entries, row after row
+            np.repeat((starts - row_ptr[:-1]).astype(it), lens) + np.arange(row_ptr[-1], dtype=it))
+        c, data = code[A.indices[at]], A.data[at]
+        del at, code
+        parts = []
+        for inner, keep in ((True, c >= 0), (False, c <= -2)):
+            counted = np.zeros(c.size + 1, dtype=it)
+            np.cumsum(keep, out=counted[1:])
+            ptr = counted[row_ptr]
+            del counted
+            cols = c[keep] if inner else -2 - c[keep]
+            part = sp.csr_array((data[keep], cols, ptr), shape=(N, N if inner else k))
+            part.has_sorted_indices = bool(A.has_sorted_indices) and inner
+            parts.append(part)
+        del c, data
+        self._A_II, self._A_Ib = parts
         K = self._A_II
         if Aeq is not None:
             self._Aeq_I, self._Aeq_b = Aeq[:, self.unknown].tocsr(), Aeq[:, self.idx].tocsr()
             K, solver = sp.csr_array(sp.bmat([[K, self._Aeq_I.T], [self._Aeq_I, None]])), "direct"
         t3 = time.perf_counter()
         try:
-            self._solver = make_linear_solver(K, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter)
+            self._solver = make_linear_solver(K, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter,
+                                              factoriser=factoriser)
         except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
             if Aeq is None:
                 raise

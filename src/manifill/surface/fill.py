@@ -12,7 +12,7 @@ The paper's Step 5 iterates from random values or from a gradually varied fit;
 import numpy as np
 
 from ..errors import SolveError
-from ..linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
+from ..linalg.backends import AUTO_DIRECT_FIELDS, AUTO_DIRECT_MAX, auto_backend
 from ..mesh.laplacian import WEIGHTS
 from ..validate import check_option
 from .gradual import gvf
@@ -188,12 +188,14 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
 
     def build():
         L = surface.laplacian(weights)
-        backend = solver
-        if solver == "auto" and fields >= AUTO_DIRECT_FIELDS:  # many fields: a factorisation if it fits
-            backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields, largest=largest)
+        backend, factoriser = solver, None
+        if fields >= AUTO_DIRECT_FIELDS:  # many fields: a factorisation if it fits, by SuperLU (see factorise)
+            if solver == "auto":
+                backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields, largest=largest)
+            factoriser = "superlu" if largest is not None and largest <= AUTO_DIRECT_MAX else None
         hs = HarmonicSolver.from_laplacian(L, idx, solver=backend, on_empty=on_empty, iteration=iteration,
-                                           tol=tol, maxiter=maxiter,
-                                           symmetric_pattern=weights in ("uniform", "cotan"))
+                                           tol=tol, maxiter=maxiter, symmetric_pattern=weights in ("uniform", "cotan"),
+                                           factoriser=factoriser)
         hs.report["weights"] = weights
         return hs
 

@@ -103,7 +103,7 @@ class HarmonicSolver(QuadraticSolver):
 
     @classmethod
     def from_laplacian(cls, L, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel",
-                       tol=None, maxiter=None, symmetric_pattern=False):
+                       tol=None, maxiter=None, symmetric_pattern=False, factoriser=None):
         """Harmonic extension for a given Laplacian (a mesh's, a graph's, your own).
 
         Parameters
@@ -118,6 +118,8 @@ class HarmonicSolver(QuadraticSolver):
         symmetric_pattern : bool, optional
             Promise that the sparsity pattern of ``L`` is symmetric (it is for
             :func:`manifill.laplacian`), which speeds up the component search.
+        factoriser : {None, 'superlu', 'pardiso'}, optional
+            What factorises for ``direct`` (:class:`~manifill.linalg.quadratic.QuadraticSolver`).
 
         Returns
         -------
@@ -141,7 +143,8 @@ class HarmonicSolver(QuadraticSolver):
         L = as_laplacian(L, what="L")
         obj = cls.__new__(cls)
         QuadraticSolver.__init__(obj, L, idx, solver=solver, on_empty=on_empty, iteration=iteration, tol=tol,
-                                 maxiter=maxiter, symmetric_pattern=symmetric_pattern, what="L")
+                                 maxiter=maxiter, symmetric_pattern=symmetric_pattern, what="L",
+                                 factoriser=factoriser)
         obj._name_weights("given", {})
         return obj
 

@@ -3,10 +3,12 @@
 ``python -m bench all --smoke --out <tmp>`` from the repository root, in a
 subprocess; no timing is asserted. The benchmark-only peers (potpourri3d, mne)
 may be missing: their rows then say "not installed" and the head case is
-skipped with a note, and the run still succeeds.
+skipped with a note, and the run still succeeds. ``python -m bench.many_fields --smoke``
+likewise (issue 14's many-fields benchmark), with its equality checks.
 """
 
 import importlib.util
+import json
 import re
 import subprocess
 import sys
@@ -60,3 +62,20 @@ def test_bench_all_smoke(tmp_path):
         assert png.stat().st_size > 1000, png
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
         assert f"benchmarks/{png.name}" in text, png.name
+
+
+def test_many_fields_smoke(tmp_path):
+    # python -m bench.many_fields --smoke: every configuration's child runs, apply equals reconstruct, manifill
+    # equals igl.harmonic off the fixed set, and the tables and the JSON are written
+    out = tmp_path / "many_fields.json"
+    p = subprocess.run([sys.executable, "-m", "bench.many_fields", "--smoke", "--out", str(out)], cwd=ROOT,
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-4000:]
+    assert "| k | method | reconstruct / igl |" in p.stdout
+    rows = json.loads(out.read_text(encoding="utf-8"))["rows"]
+    assert [r["method"] for r in rows] == ["gvf-harmonic", "harmonic", "default"]
+    for r in rows:
+        assert max(r["apply_vs_reconstruct"].values()) <= 1e-12
+        assert r["igl_vs_manifill"] <= 1e-10
+        assert r["fixed"] == (r["k"] if r["method"] == "harmonic" else r["igl_fixed"])
+        assert {"reconstruct", "build", "all", "chunks", "one", "igl"} <= set(r["seconds"])

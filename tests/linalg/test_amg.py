@@ -117,3 +117,23 @@ def test_many_columns_equal_column_by_column(name):
     X0, info0 = solver.solve(R, x0=X)
     assert info0["iterations"] == [0] * R.shape[1]
     np.testing.assert_array_equal(X0, X)
+
+
+@names
+def test_blocks_of_rows_in_the_set_up_change_no_bit(name, monkeypatch):
+    # the row sums of |A| and S = A T are built block of rows by block: any block size, the same hierarchy
+    import manifill.linalg.amg as amg
+
+    A, _ = problem(name)
+    solver = AMGSolver(A)
+    whole = Multigrid(solver.A, solver)
+    monkeypatch.setattr(amg, "_BLOCK", 1000)
+    blocked = Multigrid(solver.A, solver)
+    assert len(whole.levels) == len(blocked.levels)
+    for one, other in zip(whole.levels, blocked.levels):
+        for X, Y in zip(one, other):
+            if X is None:
+                assert Y is None
+                continue
+            assert X.shape == Y.shape and (X != Y).nnz == 0
+            np.testing.assert_array_equal(sp.csr_matrix(X).indptr, sp.csr_matrix(Y).indptr)

@@ -275,3 +275,24 @@ def test_equality_multipliers_make_the_gradient_vanish():
     g = A @ x + c + Aeq.T @ q.eq_multipliers[:, 0]
     assert np.abs(g[q.unknown]).max() <= 1e-9
     assert QuadraticSolver(A, idx).eq_multipliers is None
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@given(n=st.integers(2, 30), seed=st.integers(0, 10_000), components=st.integers(1, 3), data=st.data())
+def test_reduction_blocks_equal_fancy_indexing(n, seed, components, data):
+    # A_II = A[I][:, I] and A_Ib = A[I][:, idx] exactly (values, order, int32 indices), for fixed indices in
+    # any order, components left empty (on_empty='nan') and stored zeros
+    A = sp.csr_array(graph_laplacian(n, seed, extra=n // 2, components=components))
+    A.data[::7] = 0.0  # stored zeros stay stored
+    N = A.shape[0]
+    idx = np.array(data.draw(st.lists(st.integers(0, n - 1), min_size=1, max_size=n, unique=True)))
+    q = QuadraticSolver(A, idx, solver="iterate", on_empty="nan")  # no factorisation of a singular A_II
+    rows = A[q.unknown]
+    for got, want in ((q._A_II, rows[:, q.unknown]), (q._A_Ib, rows[:, idx])):
+        want = sp.csr_array(want)
+        assert got.shape == want.shape
+        np.testing.assert_array_equal(got.indptr, want.indptr)
+        np.testing.assert_array_equal(got.indices, want.indices)
+        np.testing.assert_array_equal(got.data, want.data)
+        assert got.indices.dtype == np.int32
+    assert q.unknown.size + idx.size + int(q.empty.sum()) == N

@@ -49,14 +49,15 @@ def face_soups(draw):
     return F, n
 
 
-@pytest.mark.parametrize("pack", [True, False], ids=["packed-sort", "argsort"])
+@pytest.mark.parametrize("pack", [62, 12, 0], ids=["one-sort", "groups", "a-groups"])
 @settings(max_examples=60, deadline=None)
 @given(data=face_soups())
 def test_edge_index_matches_reference(data, pack):
-    # any face soup (repeated vertices, non-manifold edges, unused vertices), both sort paths
+    # any face soup (repeated vertices, non-manifold edges, unused vertices); one packed sort, or half-edges
+    # grouped by the top bits of their first vertex first (as on large meshes), down to one group per vertex
     F, n = data
     old = edges_module._PACK_BITS
-    edges_module._PACK_BITS = 62 if pack else 0
+    edges_module._PACK_BITS = pack
     try:
         ix = EdgeIndex(F, n)
     finally:
@@ -106,3 +107,16 @@ def test_edges_and_adjacency_match_a_slow_count(mesh):
     assert {tuple(e) for e in E.tolist()} == edge_set(F)
     assert count.sum() == 3 * len(F)  # every face contributes its 3 edges
     np.testing.assert_array_equal(dense(adjacency(F, len(V))), adjacency_dense(F, len(V)))
+
+
+def test_index_arrays_are_int32_and_edges_int64():
+    # the edge index keeps int32 indices (as SciPy keeps them for these sizes); edges() returns int64
+    V, F = icosphere(2)
+    ix = EdgeIndex(F, len(V))
+    assert ix.E.dtype == ix.count.dtype == ix.face_edges.dtype == np.int32
+    for diagonal in (None, np.ones(len(V))):
+        A = ix.matrix(np.ones(len(ix)), diagonal=diagonal)
+        assert A.indices.dtype == A.indptr.dtype == np.int32
+    E, count = edges(F)
+    assert E.dtype == count.dtype == np.int64
+    np.testing.assert_array_equal(E, ix.E)

@@ -444,3 +444,15 @@ def test_mass_rejects_bad_input(single_triangle):
         mass_matrix(V, [[0, 1, 3]])
     with pytest.raises(MeshError, match="NaN"):
         mass_matrix(np.where(V == 1, np.nan, V), F)
+
+
+def test_cotangents_in_blocks_change_no_bit(monkeypatch):
+    # the faces are processed block by block: any block size gives the same numbers
+    import manifill.mesh.geometry as geometry
+
+    V, F = icosphere(3)
+    V = V * (1 + 0.1 * np.random.default_rng(0).standard_normal((len(V), 1)))
+    whole, L = cotangents(V, F), laplacian(V, F)
+    monkeypatch.setattr(geometry, "_BLOCK", 37)
+    np.testing.assert_array_equal(cotangents(V, F), whole)
+    np.testing.assert_array_equal(laplacian(V, F).data, L.data)

@@ -312,3 +312,57 @@ def test_steepest_without_curves():
     V, F, _ = mesh("grid")
     part = partition(V, F, np.array([3]), mesh_graph(V, F, distance="hops"), method="delaunay")
     assert part.curves == [] and part.steepest(np.array([3]), np.ones((1, 2))) == [None, None]
+
+
+# ---------------------------------------------------------------------------
+# the paths of all curves traced at once equal the paths traced one at a time
+# ---------------------------------------------------------------------------
+
+
+def slow_partition(V, F, idx, G, method):
+    """Curves, ends and patch labels one path at a time, in plain Python, from the same Voronoi pairs."""
+    from scipy.sparse import csgraph, csr_array
+
+    from manifill.mesh.graph import voronoi_pairs
+
+    vor = voronoi_pairs(G, idx)
+
+    def walk(x):
+        path = [int(x)]
+        while vor.pred[path[-1]] >= 0:
+            path.append(int(vor.pred[path[-1]]))
+        return path
+
+    rows = list(range(len(vor.p)))
+    if method == "tree" and rows:
+        k = len(idx)
+        T = csgraph.minimum_spanning_tree(csr_array((vor.length, (vor.p, vor.q)), shape=(k, k))).tocoo()
+        tree = {(min(a, b), max(a, b)) for a, b in zip(T.row.tolist(), T.col.tolist())}
+        rows = [j for j in rows if (int(vor.p[j]), int(vor.q[j])) in tree]
+    curves = [walk(vor.edge[j][0])[::-1] + walk(vor.edge[j][1]) for j in rows]
+    ends = [(int(idx[vor.p[j]]), int(idx[vor.q[j]])) for j in rows]
+    on = np.zeros(len(V), dtype=bool)
+    on[idx] = True
+    for c in curves:
+        on[c] = True
+    lab, count = flood(neighbours(edge_set(F), len(V)), ~on)  # numbered by first vertex
+    sizes = np.bincount(lab[lab >= 0], minlength=count)
+    rank = np.empty(count, dtype=np.int64)
+    rank[np.argsort(-sizes, kind="stable")] = np.arange(count)
+    labels = np.where(lab >= 0, rank[np.maximum(lab, 0)], -1)
+    return curves, ends, on, labels
+
+
+@hsettings
+@given(name=st.sampled_from(sorted(MESHES) + ["two_components"]), method=st.sampled_from(["delaunay", "tree"]),
+       distance=st.sampled_from(["hops", "length"]), seed=st.integers(0, 10**6), k=st.integers(1, 40))
+def test_all_paths_at_once_equal_one_path_at_a_time(name, method, distance, seed, k):
+    V, F, _ = mesh(name)
+    idx = np.sort(np.random.default_rng(seed).choice(len(V), size=min(k, len(V)), replace=False))
+    G = mesh_graph(V, F, distance=distance)
+    part = partition(V, F, idx, G, method=method)
+    curves, ends, on, labels = slow_partition(V, F, idx, G, method)
+    assert [c.tolist() for c in part.curves] == curves
+    assert part.ends.tolist() == [list(e) for e in ends]
+    np.testing.assert_array_equal(part.on_curve, on)
+    np.testing.assert_array_equal(part.labels, labels)

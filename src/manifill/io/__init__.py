@@ -12,6 +12,10 @@ Surfaces (:func:`read_mesh`, :func:`read_mesh_file`, :func:`write_mesh`; the tab
 Samples and values (:func:`read_samples`, :func:`write_values`): ``.csv``, ``.npz``,
 ``.npy``, per-vertex GIfTI / MGH / FreeSurfer morphometry data, FreeSurfer ``.label``.
 
+Fields in time (:func:`read_series`, :class:`SeriesWriter`, :func:`write_series`,
+:func:`read_series_values`): samples with many time steps (wide, long or per-time files);
+``(n, T)`` values streamed to ``.xdmf`` (+ ``.h5``), ``.pvd`` (+ VTU), ``.npy`` or ``.h5``.
+
 Solids: tetrahedral meshes (:func:`read_tets`, :func:`write_tets`: ``.vtu``, ``.vtk``,
 ``.msh``), voxel grids (:func:`read_vti`, :func:`write_vti`, :func:`read_mask`:
 ``.vti``, ``.npy``).
@@ -20,7 +24,8 @@ Mask arrays are written under one set of names (:data:`SAMPLE_MASK`,
 :data:`CURVE_MASK`, :data:`PATCH_LABEL`, :data:`BOUNDARY_MASK`). Every write is
 atomic; every damaged file ends in one :class:`~manifill.errors.ReadError` naming it.
 The modules: :mod:`manifill.io.registry` (the format table and dispatch),
-:mod:`manifill.io.field_names`, :mod:`manifill.io.samples`, :mod:`manifill.io.solids`,
+:mod:`manifill.io.field_names`, :mod:`manifill.io.samples`, :mod:`manifill.io.series`,
+:mod:`manifill.io.series_write`, :mod:`manifill.io.solids`,
 :mod:`manifill.io.vtkxml_decode`, :mod:`manifill.io.vtkxml_read`,
 :mod:`manifill.io.vtkxml_write`, :mod:`manifill.io.vtklegacy_scan`,
 :mod:`manifill.io.vtklegacy_read`, :mod:`manifill.io.vtklegacy_write`,
@@ -44,10 +49,13 @@ from .files import atomic_path
 from .registry import (MESH_FORMATS, MeshFile, MeshFormat, format_note, read_mesh, read_mesh_file, write_cells,
                        write_mesh)
 from .samples import SAMPLE_FORMATS, VALUE_FORMATS, read_samples, write_values
+from .series import SERIES_FORMATS, SampleSeries, read_series, read_series_values
+from .series_write import SeriesWriter, write_series
 from .solids import GRID_FORMATS, TET_FORMATS, has_tets, read_mask, read_tets, read_vti, write_tets, write_vti
 
 __all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "read_mesh", "read_mesh_file", "write_mesh", "write_cells",
            "format_note", "SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES",
            "check_field_names", "stored_names", "SAMPLE_FORMATS", "VALUE_FORMATS", "read_samples", "write_values",
            "TET_FORMATS", "GRID_FORMATS", "has_tets", "read_tets", "write_tets", "read_vti", "write_vti", "read_mask",
-           "atomic_path"]
+           "atomic_path", "SERIES_FORMATS", "SampleSeries", "read_series", "read_series_values", "SeriesWriter",
+           "write_series"]

@@ -26,6 +26,7 @@ damaged ZIP member is caught before anything is allocated.
 import csv
 import os
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,8 @@ from ..errors import MeshError, ReadError, SampleError, WriteError
 from .files import atomic_path, check_input_file, reading, suffix
 from ..surface.samples import Samples, field_names
 
-__all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "read_samples", "write_values"]
+__all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "SampleTable", "read_samples", "read_sample_table",
+           "samples_from_table", "load_npz", "write_values"]
 
 VALUE_FORMATS = (".csv", ".npy")
 SAMPLE_FORMATS = (".csv", ".npz", ".npy", ".gii", ".mgh", ".mgz", ".label")
@@ -111,11 +113,57 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         Positions given for a mesh whose points are not all finite.
     """
     path = Path(path)
+    table = read_sample_table(path, len(V))
+    return samples_from_table(path, V, table, duplicates=duplicates, max_distance=max_distance,
+                              vertex_numbering=vertex_numbering, snap_to=snap_to, keep_points=keep_points)
+
+
+@dataclass
+class SampleTable:
+    """A sample file's rows as numbers, before they meet the mesh.
+
+    Attributes
+    ----------
+    kind : {'vertex', 'points'}
+        Whether the rows start with a vertex index or with ``x, y, z``.
+    table : (r, c) float64 numpy array
+        One row per sample: the index (or three coordinates), then the values.
+    names : list of str or None
+        The value columns' names.
+    lines : (r,) int numpy array or None
+        The line of each row in a CSV file (``None`` for other files).
+    """
+
+    kind: str
+    table: np.ndarray
+    names: list
+    lines: np.ndarray = None
+
+
+def read_sample_table(path, n):
+    """Read a sample file's rows (any layout :func:`read_samples` reads) without snapping them to a mesh.
+
+    Parameters
+    ----------
+    path : str or Path
+    n : int
+        Number of vertices of the mesh (per-vertex data files hold one value per vertex).
+
+    Returns
+    -------
+    SampleTable
+
+    Raises
+    ------
+    ReadError, SampleError
+        As :func:`read_samples`.
+    """
+    path = Path(path)
     kind = _sample_kind(path)
     check_input_file(path)
-    n = len(V)
+    lines = None
     if kind == ".csv":
-        kind, table, names = _read_csv(path)
+        kind, table, names, lines = _read_csv(path)
     elif kind == ".npz":
         kind, table, names = _read_npz(path)
     elif kind == ".npy":
@@ -129,6 +177,21 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
         kind, table, names = "vertex", np.column_stack([idx, vals]), [path.name.split(".label")[0]]
     else:
         kind, table, names = _read_vertex_data(path, n)
+    return SampleTable(kind, table, names, lines)
+
+
+def samples_from_table(path, V, table, *, duplicates="error", max_distance=None, vertex_numbering=None,
+                       snap_to=None, keep_points=False):
+    """The :class:`Samples` of a :class:`SampleTable` read from ``path`` (options as :func:`read_samples`).
+
+    Raises
+    ------
+    ReadError, SampleError, MeshError
+        As :func:`read_samples`; the messages name ``path``.
+    """
+    path = Path(path)
+    n = len(V)
+    kind, names, table = table.kind, table.names, table.table
     if kind == "vertex":
         if vertex_numbering:
             raise SampleError(f"{vertex_numbering}; give the samples as positions (x,y,z,value) instead")
@@ -208,7 +271,7 @@ def _read_csv(path):
     if bad.any():
         lines = ", ".join(str(lineno[int(r) + 1]) for r in np.flatnonzero(bad)[:5])
         raise SampleError(f"{path.name}: NaN or infinite values on lines {lines}; remove or fix those samples")
-    return kind, table, [h.strip() for h in header[ncoord:]]
+    return kind, table, [h.strip() for h in header[ncoord:]], np.asarray(lineno[1:])
 
 
 def _npy_header(fh, name, size):
@@ -246,7 +309,7 @@ def load_npy(path, kind="NPY array"):
         return np.load(path, allow_pickle=False)
 
 
-def _load_npz(path):
+def load_npz(path):
     """The arrays of a ``.npz`` archive, each member's header checked against its size first."""
     with reading(path, "NPZ archive"):
         with zipfile.ZipFile(path) as zf:
@@ -271,7 +334,7 @@ def _numeric(arr, what, path):
 
 
 def _read_npz(path):
-    data = _load_npz(path)
+    data = load_npz(path)
     if "vals" not in data or not ({"idx", "points"} & set(data)):
         raise ReadError(f"{path.name}: needs arrays 'vals' and 'idx' (or 'points'); found {sorted(data)}")
     key = "idx" if "idx" in data else "points"

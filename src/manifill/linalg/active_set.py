@@ -188,8 +188,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
         c = np.asarray(linear, dtype=np.float64)
         C[q.unknown] = (c[:, None] if c.ndim == 1 else c)[q.unknown]
     B = None if beq is None else np.asarray(beq, dtype=np.float64)
-    if B is not None:
-        B = np.broadcast_to(B[:, None] if B.ndim == 1 else B, (B.shape[0], p))
+    B = None if B is None else np.broadcast_to(B[:, None] if B.ndim == 1 else B, (B.shape[0], p))
     mu = q.eq_multipliers
     amax = float(np.abs(q.A.data).max()) if q.A.nnz else 0.0
     report = {"lo": [None if np.isinf(v) else float(v) for v in lo],

@@ -20,7 +20,10 @@ __all__ = ["Multigrid", "canonical_csr", "independent_blocks"]
 
 def canonical_csr(A):
     """``A`` as a float64 CSR matrix with summed duplicates, sorted indices and one index dtype."""
-    A = sp.csr_matrix(A, dtype=np.float64)
+    if sp.issparse(A) and A.format == "csr" and A.dtype == np.float64:
+        A = sp.csr_matrix((A.data, A.indices, A.indptr), shape=A.shape)  # no copy
+    else:
+        A = sp.csr_matrix(A, dtype=np.float64)
     if not A.has_canonical_format:
         A = A.copy()
         A.sum_duplicates()
@@ -37,6 +40,42 @@ def _strict_upper(A):
     keep = A.indices > np.repeat(np.arange(n, dtype=A.indices.dtype), np.diff(A.indptr))
     indptr = np.concatenate([[0], np.cumsum(keep)])[A.indptr].astype(A.indptr.dtype)
     return sp.csr_matrix((A.data[keep], A.indices[keep], indptr), shape=A.shape)
+
+
+#: Stored entries per block of rows in the set-up's passes over a matrix: the temporaries stay small.
+_BLOCK = 1 << 20
+
+
+def _row_sums_and_aggregate(A, t, agg, nagg):
+    """The row sums of ``|A|`` and ``S = A T`` (``T`` the tentative prolongator ``t`` at columns ``agg``).
+
+    ``T`` has one entry per row, so row ``i`` of ``S`` sums ``A_ij t_j`` into column
+    ``agg_j``: no general product, only each row's entries merged (sorted, duplicates
+    summed). Block of rows by block, so that no temporary has ``A``'s size.
+    """
+    n = A.shape[0]
+    ones = np.ones(n)
+    rowabs = np.empty(n)
+    data, indices, counts = [], [], []
+    step = max(1, int(_BLOCK * n / max(A.nnz, 1)))
+    for r0 in range(0, n, step):
+        r1 = min(n, r0 + step)
+        p0, p1 = A.indptr[r0], A.indptr[r1]
+        ptr = A.indptr[r0:r1 + 1] - p0
+        cols, vals = A.indices[p0:p1], A.data[p0:p1]
+        rowabs[r0:r1] = sp.csr_matrix((np.abs(vals), cols, ptr), shape=(r1 - r0, n)) @ ones
+        part = sp.csr_matrix((vals * t[cols], agg[cols], ptr), shape=(r1 - r0, nagg))
+        part.sum_duplicates()  # in place, on this block's own ptr
+        data.append(part.data)
+        indices.append(part.indices)
+        counts.append(np.diff(part.indptr))
+    indptr = np.zeros(n + 1, dtype=A.indptr.dtype)
+    if counts:
+        np.cumsum(np.concatenate(counts), out=indptr[1:])
+    S = sp.csr_matrix((np.concatenate(data) if data else np.zeros(0), np.concatenate(indices) if indices else
+                       np.zeros(0, A.indices.dtype), indptr), shape=(n, nagg))
+    S.has_canonical_format = True
+    return rowabs, S
 
 
 def _coarsen(A, B, omega):
@@ -65,9 +104,8 @@ def _coarsen(A, B, omega):
     t = B / norms[agg]
     T = sp.csr_matrix((t, agg, np.arange(n + 1, dtype=agg.dtype)), shape=(n, nagg))  # orthonormal columns
     # P = T - omega D_l^{-1} A T, D_l the row sums of |A| (a local Gershgorin bound)
-    rowabs = sp.csr_matrix((np.abs(A.data), A.indices, A.indptr), shape=A.shape) @ np.ones(n)
+    rowabs, S = _row_sums_and_aggregate(A, t, agg, nagg)
     scale = np.divide(-omega, rowabs, out=np.zeros(n), where=rowabs > 0)
-    S = A @ T
     S.data *= np.repeat(scale, np.diff(S.indptr))
     P = sp.csr_matrix(S + T)
     P.eliminate_zeros()
@@ -108,7 +146,10 @@ class Multigrid:
             data = (Ak.data * (1.0 / self.scale)).astype(np.float32)
             Ak32 = sp.csr_matrix((data, Ak.indices, Ak.indptr), shape=Ak.shape)
             U = _strict_upper(Ak32) if not self.levels and self.fine_sweeps == 1 else None
-            self.levels.append((Ak32, U, R.astype(np.float32), P.astype(np.float32)))
+            P32 = P.astype(np.float32)
+            del P, R
+            # the restriction is P's transpose as a view (CSC): the same sums in the same order as R's rows
+            self.levels.append((Ak32, U, P32.T, P32))
             Ak = Ac
 
     def _cycle(self, k, b):

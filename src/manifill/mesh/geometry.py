@@ -41,7 +41,21 @@ def cotangents(V, F):
     [[0.0, 0.5, 0.5]]
     """
     x, y, z = (np.ascontiguousarray(V[:, k]) for k in range(3))
-    i0, i1, i2 = (np.ascontiguousarray(F[:, k]) for k in range(3))
+    C = np.empty((3, len(F))).T  # column-major: each column, and C.T.ravel(), contiguous
+    # in blocks of faces whose temporaries stay in cache: faster, and no (m,)-sized temporaries
+    for s in range(0, len(F), _BLOCK):
+        _cotangents_block(x, y, z, F[s:s + _BLOCK], C[s:s + _BLOCK])
+    return C
+
+
+#: Faces per block of :func:`cotangents`.
+_BLOCK = 16384
+
+
+def _cotangents_block(x, y, z, F, out):
+    """:func:`cotangents` of the faces ``F`` into ``out``, from the coordinate columns."""
+    i0, i1, i2 = F[:, 0], F[:, 1], F[:, 2]
+
     # edge vectors opposite each corner: e0 = v2 - v1, e1 = v0 - v2, e2 = v1 - v0
     def opposite(c):
         """The three edge vectors' components along one axis, each corner gathered once."""
@@ -54,12 +68,10 @@ def cotangents(V, F):
     cz = ex[0] * ey[1] - ey[0] * ex[1]
     dbl = np.sqrt(cx * cx + cy * cy + cz * cz)
     inv = np.divide(0.5, dbl, out=np.zeros_like(dbl), where=dbl > 0)
-    C = np.empty((len(F), 3))
     for k in range(3):
         a, b = (k + 1) % 3, (k + 2) % 3
         # angle at corner k lies between edges -e_b (towards b's far end) and e_a
-        C[:, k] = -(ex[a] * ex[b] + ey[a] * ey[b] + ez[a] * ez[b]) * inv
-    return C
+        out[:, k] = -(ex[a] * ex[b] + ey[a] * ey[b] + ez[a] * ez[b]) * inv
 
 
 def face_areas(V, F):

@@ -23,7 +23,7 @@ from ..tolerances import TOL
 from ..validate import check_option, unit_scale
 from .edges import EdgeIndex
 
-__all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace"]
+__all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace", "trace_paths"]
 
 DISTANCES = ("hops", "length")
 
@@ -172,20 +172,26 @@ def voronoi_pairs(G, sources):
     dist, root, pred = offset_distances(G, sources, np.zeros(sources.size))
     G = sp.csr_array(G)
     n = G.shape[0]
-    u = np.repeat(np.arange(n), np.diff(G.indptr))
-    v = G.indices.astype(np.int64)
-    ru, rv = root[u], root[v]
-    cross = (ru >= 0) & (rv >= 0) & (ru < rv)
-    u, v, ru, rv = u[cross], v[cross], ru[cross], rv[cross]
-    length = dist[u] + G.data[cross] + dist[v]
+    rv = root[G.indices]
+    ru = np.repeat(root, np.diff(G.indptr))
+    at = np.flatnonzero((ru >= 0) & (ru < rv))  # directed edges from a cell to a later one
+    u = np.repeat(np.arange(n), np.diff(G.indptr))[at]
+    v = G.indices[at].astype(np.int64)
+    ru, rv = ru[at], rv[at]
+    length = dist[u] + G.data[at] + dist[v]
     if length.size == 0:
         e = np.empty(0, dtype=np.int64)
         return Voronoi(e, e, np.empty(0), np.empty((0, 2), dtype=np.int64), dist, root, pred)
-    order = np.lexsort((length, rv, ru))
-    u, v, ru, rv, length = u[order], v[order], ru[order], rv[order], length[order]
-    first = np.ones(length.size, dtype=bool)
-    first[1:] = (ru[1:] != ru[:-1]) | (rv[1:] != rv[:-1])
-    return Voronoi(ru[first], rv[first], length[first], np.column_stack([u[first], v[first]]), dist, root, pred)
+    # per pair of cells (in the order of (p, q)), the shortest crossing, the first edge among equals
+    key = ru * sources.size + rv
+    order = np.argsort(key, kind="stable")
+    key, lo = key[order], length[order]
+    start = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+    size = np.diff(np.append(start, key.size))
+    best = np.flatnonzero(lo == np.repeat(np.minimum.reduceat(lo, start), size))
+    pair = np.repeat(np.arange(start.size), size)[best]
+    pick = order[best[np.concatenate([[True], pair[1:] != pair[:-1]])]]
+    return Voronoi(ru[pick], rv[pick], length[pick], np.column_stack([u[pick], v[pick]]), dist, root, pred)
 
 
 def trace(pred, x):
@@ -207,3 +213,55 @@ def trace(pred, x):
     while pred[path[-1]] >= 0:
         path.append(int(pred[path[-1]]))
     return np.array(path, dtype=np.int64)
+
+
+def trace_paths(pred, x):
+    """:func:`trace` from many start vertices at once: every path, concatenated.
+
+    All paths follow their predecessor pointers together, one step of all the
+    paths still running at a time, so the work is the paths' total length and
+    the number of numpy steps the longest path's.
+
+    Parameters
+    ----------
+    pred : (n,) numpy array of int
+        Predecessors from :func:`offset_distances` (negative at sources).
+    x : (e,) numpy array of int
+        Start vertices.
+
+    Returns
+    -------
+    flat : (l,) int64 numpy array
+        The paths one after another, each ``trace(pred, x[j])``: ``x[j]`` first,
+        its source last.
+    lens : (e,) int64 numpy array
+        The length of every path (path ``j`` is ``flat[s[j]:s[j] + lens[j]]``
+        with ``s`` the cumulative sum of ``lens`` before ``j``).
+
+    Examples
+    --------
+    >>> pred = np.array([-9999, 0, 1, -9999, 3])
+    >>> flat, lens = trace_paths(pred, np.array([2, 4, 0]))
+    >>> flat.tolist(), lens.tolist()
+    ([2, 1, 0, 4, 3, 0], [3, 2, 1])
+    """
+    pred = np.asarray(pred)
+    cur = np.asarray(x, dtype=np.int64).ravel()
+    e = cur.size
+    ids = np.arange(e, dtype=np.int64)
+    who, where, step = [], [], []
+    s = 0
+    while ids.size:
+        who.append(ids)
+        where.append(cur)
+        step.append(np.full(ids.size, s, dtype=np.int64))
+        nxt = pred[cur]
+        go = nxt >= 0
+        ids, cur = ids[go], nxt[go].astype(np.int64)
+        s += 1
+    lens = np.bincount(np.concatenate(who), minlength=e) if who else np.zeros(0, dtype=np.int64)
+    flat = np.empty(int(lens.sum()), dtype=np.int64)
+    if who:
+        start = np.concatenate([[0], np.cumsum(lens)[:-1]])
+        flat[start[np.concatenate(who)] + np.concatenate(step)] = np.concatenate(where)
+    return flat, lens.astype(np.int64)

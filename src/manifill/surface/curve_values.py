@@ -107,8 +107,10 @@ def vertex_normals(V, F, where=None):
 
 def _vertex_normals(V, F, where, sc):
     """:func:`vertex_normals` of the positions ``V / sc`` (``sc`` a power of two)."""
+    n = len(V)
+    need = np.ones(n, dtype=bool)
     if where is not None:
-        need = np.zeros(len(V), dtype=bool)
+        need = np.zeros(n, dtype=bool)
         need[where] = True
         F = F[need[F].any(axis=1)]
     d1, d2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
@@ -117,9 +119,17 @@ def _vertex_normals(V, F, where, sc):
         d2 *= 1.0 / sc
     N = np.cross(d1, d2)
     corners = F.ravel()
-    out = np.column_stack([np.bincount(corners, weights=np.repeat(N[:, c], 3), minlength=len(V)) for c in range(3)])
-    norm = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.divide(out, norm, out=np.zeros_like(out), where=norm > 0)
+    # the sums at the needed vertices only, over their faces in order
+    at = need[corners]
+    u = np.flatnonzero(need)
+    pos = np.zeros(n, dtype=np.int64)
+    pos[u] = np.arange(u.size)
+    c = pos[corners[at]]
+    sums = np.column_stack([np.bincount(c, weights=np.repeat(N[:, j], 3)[at], minlength=u.size) for j in range(3)])
+    norm = np.linalg.norm(sums, axis=1, keepdims=True)
+    out = np.zeros((n, 3))
+    out[u] = np.divide(sums, norm, out=np.zeros_like(sums), where=norm > 0)
+    return out
 
 
 #: Where a path wanders (its arc length ``L`` well beyond the straight distance ``c``
@@ -200,7 +210,8 @@ def _hermite(V, F, curves, ends, idx, vals, normals=None, monotone=False):
     cid = np.repeat(np.arange(len(curves)), lens)
     # arc length from the start of each curve
     seg = np.zeros(flat.size)
-    seg[1:] = np.sqrt(sum((V[flat[1:], k] - V[flat[:-1], k]) ** 2 for k in range(3)))
+    step = np.diff(V[flat], axis=0)
+    seg[1:] = np.sqrt(step[:, 0] ** 2 + step[:, 1] ** 2 + step[:, 2] ** 2)
     seg[first] = 0.0
     s = np.cumsum(seg)
     s -= s[first][cid]
@@ -306,7 +317,10 @@ def curve_values(V, edges, idx, vals, *, method="linear", levels=None, level=Non
     check_option("curve_values", method, CURVE_VALUES)
     n = len(V)
     idx = np.asarray(idx, dtype=np.int64)
-    cv = np.unique(np.concatenate([edges.ravel(), idx])) if len(edges) else np.sort(idx)
+    on = np.zeros(n, dtype=bool)
+    on[edges.ravel()] = True
+    on[idx] = True
+    cv = np.flatnonzero(on)
     if method == "gvf":
         G = curve_graph(V, edges, n, distance="hops")
         fit = gvf(G, idx, level)

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from ..mesh.graph import trace, voronoi_pairs
+from ..mesh.graph import trace, trace_paths, voronoi_pairs
 from ..mesh.topology import pattern_components
 from ..validate import check_option, unit_scale
 
@@ -73,6 +73,7 @@ class Partition:
     boundaries: list
     report: dict = field(default_factory=dict)
     _edges: np.ndarray = field(default=None, init=False, repr=False)
+    _flat: tuple = field(default=None, init=False, repr=False)  # (all curves concatenated, their lengths)
 
     def curve_edges(self):
         """Unique edges ``(i, j)``, ``i < j``, of the curve network, as an (e, 2) array."""
@@ -103,7 +104,7 @@ class Partition:
         if not self.curves:
             return [None] * vals.shape[1]
         pos = np.searchsorted(idx, self.ends)
-        hops = np.array([len(c) - 1 for c in self.curves], dtype=np.float64)
+        hops = (self._flat_curves()[1] - 1).astype(np.float64)
         ok = hops > 0
         starts = []
         for j in range(vals.shape[1]):
@@ -112,41 +113,85 @@ class Partition:
             starts.append((float(ratio[best]), (int(pos[best, 0]), int(pos[best, 1]))))
         return starts
 
+    def _flat_curves(self):
+        """All curves concatenated, and their lengths (kept from :func:`partition`, else built once)."""
+        if self._flat is None:
+            lens = np.array([len(c) for c in self.curves], dtype=np.int64)
+            flat = np.concatenate(self.curves).astype(np.int64) if self.curves else np.empty(0, np.int64)
+            self._flat = (flat, lens)
+        return self._flat
+
     def _curve_edges(self):
-        if not self.curves:
+        flat, lens = self._flat_curves()
+        if flat.size < 2:
             return np.empty((0, 2), dtype=np.int64)
-        E = np.concatenate([np.column_stack([c[:-1], c[1:]]) for c in self.curves if len(c) > 1] or
-                           [np.empty((0, 2), dtype=np.int64)])
+        # consecutive vertices of the concatenation, less the pairs that straddle two curves
+        inside = np.ones(flat.size - 1, dtype=bool)
+        ends = np.cumsum(lens)[:-1]
+        inside[ends[(ends > 0) & (ends < flat.size)] - 1] = False
+        E = np.column_stack([flat[:-1][inside], flat[1:][inside]])
         E.sort(axis=1)
         if not len(E):
             return E
         m = int(E.max()) + 1
-        key = np.unique(E[:, 0] * m + E[:, 1])
+        key = _unique(E[:, 0] * m + E[:, 1])
         return np.column_stack([key // m, key % m])
 
 
-def _path_between(pred, u, v):
-    """Source-of-u ... u, v ... source-of-v, from one multi-source Dijkstra."""
-    return np.concatenate([trace(pred, u)[::-1], trace(pred, v)])
+def _unique(key):
+    """The sorted distinct values of an integer array (``numpy.unique``, by one sort)."""
+    key = np.sort(key)
+    keep = np.ones(key.size, dtype=bool)
+    keep[1:] = key[1:] != key[:-1]
+    return key[keep]
+
+
+def _paths_between(pred, edge):
+    """Per edge ``(u, v)``: source-of-u ... u, v ... source-of-v, from one multi-source Dijkstra.
+
+    All paths at once (:func:`manifill.mesh.graph.trace_paths`): the concatenation
+    and the lengths.
+    """
+    e = len(edge)
+    flat, lens = trace_paths(pred, np.concatenate([edge[:, 0], edge[:, 1]]))
+    lu, lv = lens[:e], lens[e:]
+    clens = lu + lv
+    cstart = np.cumsum(clens) - clens
+    out = np.empty(flat.size, dtype=np.int64)
+    nu = int(lu.sum())
+    # the u half of every path reversed (source first), then the v half as traced
+    j = np.repeat(np.arange(e), lu)
+    t = np.arange(nu) - (np.cumsum(lu) - lu)[j]
+    out[cstart[j] + lu[j] - 1 - t] = flat[:nu]
+    j = np.repeat(np.arange(e), lv)
+    t = np.arange(flat.size - nu) - (np.cumsum(lv) - lv)[j]
+    out[cstart[j] + lu[j] + t] = flat[nu:]
+    return out, clens
+
+
+def _split(flat, lens):
+    """The list of paths (views of ``flat``)."""
+    cut = np.cumsum(lens).tolist()
+    return [flat[a:b] for a, b in zip([0] + cut[:-1], cut)]
 
 
 def _delaunay_paths(G, idx):
     vor = voronoi_pairs(G, idx)
-    curves = [_path_between(vor.pred, u, v) for u, v in vor.edge]
-    return curves, np.column_stack([idx[vor.p], idx[vor.q]]) if len(vor.p) else np.empty((0, 2), np.int64), vor
+    flat, lens = _paths_between(vor.pred, vor.edge)
+    ends = np.column_stack([idx[vor.p], idx[vor.q]]) if len(vor.p) else np.empty((0, 2), np.int64)
+    return (flat, lens), ends, vor
 
 
 def _tree_paths(G, idx):
     vor = voronoi_pairs(G, idx)
     k = idx.size
     if len(vor.p) == 0:
-        return [], np.empty((0, 2), np.int64)
+        return (np.empty(0, np.int64), np.empty(0, np.int64)), np.empty((0, 2), np.int64)
     W = sp.csr_array((vor.length, (vor.p, vor.q)), shape=(k, k))
     T = csgraph.minimum_spanning_tree(W).tocoo()
-    keep = {(min(a, b), max(a, b)) for a, b in zip(T.row.tolist(), T.col.tolist())}
-    sel = [j for j, (a, b) in enumerate(zip(vor.p.tolist(), vor.q.tolist())) if (a, b) in keep]
-    curves = [_path_between(vor.pred, *vor.edge[j]) for j in sel]
-    return curves, np.column_stack([idx[vor.p[sel]], idx[vor.q[sel]]])
+    lo, hi = np.minimum(T.row, T.col).astype(np.int64), np.maximum(T.row, T.col).astype(np.int64)
+    sel = np.flatnonzero(np.isin(vor.p * k + vor.q, lo * k + hi))
+    return _paths_between(vor.pred, vor.edge[sel]), np.column_stack([idx[vor.p[sel]], idx[vor.q[sel]]])
 
 
 def _cycle_paths(V, G, idx):
@@ -231,22 +276,26 @@ def partition(V, F, idx, G, *, method="delaunay"):
     G = sp.csr_array(G)
     n = G.shape[0]
     if method == "delaunay":
-        curves, ends, _ = _delaunay_paths(G, idx)
+        (flat, lens), ends, _ = _delaunay_paths(G, idx)
     elif method == "tree":
-        curves, ends = _tree_paths(G, idx)
+        (flat, lens), ends = _tree_paths(G, idx)
     else:
         curves, ends = _cycle_paths(V, G, idx)
+        lens = np.array([len(c) for c in curves], dtype=np.int64)
+        flat = np.concatenate(curves) if curves else np.empty(0, np.int64)
+    curves = _split(flat, lens)
     on_curve = np.zeros(n, dtype=bool)
     on_curve[idx] = True
-    if curves:
-        on_curve[np.concatenate(curves)] = True
-        # shortest paths are simple: a vertex inside two or more of them is where paths merged
-        inner = np.concatenate([c[1:-1] for c in curves])
-    else:
-        inner = np.empty(0, dtype=np.int64)
-    uses = np.bincount(inner, minlength=n)
+    on_curve[flat] = True
+    # shortest paths are simple: a vertex inside two or more of them is where paths merged
+    inner = np.ones(flat.size, dtype=bool)
+    stop = np.cumsum(lens)
+    inner[stop[lens > 0] - lens[lens > 0]] = False
+    inner[stop[lens > 0] - 1] = False
+    uses = np.bincount(flat[inner], minlength=n)
     part = Partition(curves, np.asarray(ends, dtype=np.int64).reshape(-1, 2), on_curve,
                      np.full(n, -1, dtype=np.int64), [])
+    part._flat = (flat, lens)
     _label_patches(part, G)
     E = part.curve_edges()
     length = float(G[E[:, 0], E[:, 1]].sum()) if len(E) else 0.0
@@ -287,7 +336,7 @@ def _label_patches(part, G):
         labels[free] = rank[lab[free]]
     part.labels = labels
     touch = free[rows] & part.on_curve[cols]
-    key = np.unique(labels[rows[touch]] * n + cols[touch])
+    key = _unique(labels[rows[touch]] * n + cols[touch])
     pl, pv = key // n, key % n
     npatch = int(labels.max()) + 1
     split = np.searchsorted(pl, np.arange(npatch + 1))

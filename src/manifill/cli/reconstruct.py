@@ -46,8 +46,6 @@ def run(args):
     std_opts = uncertainty_opts(args)
     # the energy methods and gp constrain positions exactly where they are, the others use the nearest vertices
     exact = args.method in ENERGY_METHODS or args.method == "gp"
-    if args.chunk is not None and args.chunk < 1:
-        raise OptionError(f"--chunk {args.chunk}: pass a number of time steps >= 1")
     if is_series(args.samples, out, args.chunk):
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "

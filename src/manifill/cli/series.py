@@ -55,8 +55,6 @@ def run_series(args, out, options, exact):
         if getattr(args, flag, None):
             raise OptionError(f"--{flag} is not available for a time series; leave it out (open the series in "
                               f"ParaView instead)")
-    if options.get("uncertainty") or options.get("trust") is not None:
-        raise OptionError("a time series is written without the std; leave --uncertainty and --trust out")
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
     series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,

@@ -103,9 +103,9 @@ class Reconstructor:
         self.method, self.bounds, self.duplicates, self.max_distance = method, bounds, duplicates, max_distance
         self._located, self._raw, self._weights = None, idx, sample_weights
         if is_positions(idx):
-            P = np.asarray(idx, dtype=np.float64)
-            self._located = locate_points(V, F, P, max_distance=max_distance)
-            self.samples = len(P)
+            self._raw = np.asarray(idx, dtype=np.float64)  # the positions, kept for every apply
+            self._located = locate_points(V, F, self._raw, max_distance=max_distance)
+            self.samples = len(self._raw)
         elif max_distance is not None:
             raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
         else:
@@ -152,7 +152,7 @@ class Reconstructor:
         if self._located is not None:
             V, F = self.surface.V, self.surface.F
             nearest_only = self.method not in ENERGY_METHODS and self.method not in ("auto", "rbf", "gp")
-            points = point_samples(V, F, np.asarray(self._raw, dtype=np.float64), arr, duplicates=duplicates,
+            points = point_samples(V, F, self._raw, arr, duplicates=duplicates,
                                    max_distance=self.max_distance, nearest_only=nearest_only, located=self._located)
             return points.nearest, points.nearest_vals, points, points.squeeze, given
         idx, v, squeeze = as_samples(self._raw, arr, self.surface.n, duplicates=duplicates)

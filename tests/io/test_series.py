@@ -308,7 +308,7 @@ def test_long_csv_in_any_row_order_pivots_to_the_same_series(tmp_path_factory, r
 def test_long_csv_of_positions(tmp_path):
     idx = np.array([4, 40, 100])
     rows = [(*V[v], t, 10.0 * i + t) for i, v in enumerate(idx) for t in (2.0, 1.0)]
-    s = read_series(write_csv(tmp_path / "p.csv", "x,y,z,t,height", rows), V)
+    s = read_series(write_csv(tmp_path / "p.csv", "x,y,z,time,height", rows), V)
     assert s.samples.idx.tolist() == [4, 40, 100]
     np.testing.assert_array_equal(s.vals, [[1, 2], [11, 12], [21, 22]])
     np.testing.assert_array_equal(s.samples.snap_distance, 0)

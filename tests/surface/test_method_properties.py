@@ -288,10 +288,16 @@ def test_invariant_under_relabelling(c, seed):
         perm = rng.permutation(len(V))
     V2, F2, inv = relabel(V, F, perm, rng)
     order = rng.permutation(IDX.size)  # and the samples given in another order
-    r1 = run(c, vals).values
-    r2 = run(c, vals[order], V_=V2, F_=F2, idx=inv[IDX][order]).values
-    tol = 1e-7 if c["kind"] == "auto" else 1e-9
-    np.testing.assert_allclose(r2[inv], r1, rtol=0, atol=tol * np.ptp(vals))
+    a = run(c, vals)
+    b = run(c, vals[order], V_=V2, F_=F2, idx=inv[IDX][order])
+    if c["kind"] == "auto":
+        # the GCV curve can be flat to rounding (near interpolation), and rounding then picks another evaluated
+        # lambda of the same score: the score is invariant (to 1e-6: near interpolation its denominator
+        # (k - edf)^2 amplifies rounding), and so is the fit at the first run's lambda
+        s1, s2 = (r.report["harmonic"]["smoothing"] for r in (a, b))
+        np.testing.assert_allclose(s2["score"], s1["score"], rtol=1e-6)
+        b = run(c, vals[order], V_=V2, F_=F2, idx=inv[IDX][order], smoothing=float(s1["lambda"]))
+    np.testing.assert_allclose(b.values[inv], a.values, rtol=0, atol=1e-9 * np.ptp(vals))
 
 
 # method='auto' is left out: it picks one method for all fields, by their mean cross-validation error

@@ -10,7 +10,7 @@ Wide
     file of many arrays. The times are NPZ's ``times``, else the value columns' names
     when every one is a distinct number (``vertex,0.5,1.0,1.5``), else ``0 .. T-1``.
 Long
-    A CSV whose first value column is ``time`` (or ``t``): ``vertex,time,value`` or
+    A CSV whose first value column is ``time``: ``vertex,time,value`` or
     ``x,y,z,time,value``, one row per (sample, time) in any order. Every sample must
     have exactly one row at every time.
 Per-time files
@@ -51,8 +51,8 @@ from .samples import SAMPLE_FORMATS, SampleTable, load_npz, read_sample_table, s
 __all__ = ["SampleSeries", "read_series", "TIME_COLUMNS", "SERIES_FORMATS", "SeriesFormat", "need_h5py",
            "read_series_values"]
 
-#: names of the time column of a long CSV (any case)
-TIME_COLUMNS = ("time", "t")
+#: names of the time column of a long CSV (any case); not ``t``, which is a common field name
+TIME_COLUMNS = ("time",)
 _NUMBER = re.compile(r"\d+(?:\.\d+)?")
 
 

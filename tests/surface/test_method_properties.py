@@ -296,7 +296,7 @@ def test_invariant_under_relabelling(c, seed):
         # (k - edf)^2 amplifies rounding), and so is the fit at the first run's lambda
         s1, s2 = (r.report["harmonic"]["smoothing"] for r in (a, b))
         np.testing.assert_allclose(s2["score"], s1["score"], rtol=1e-6)
-        b = run(c, vals[order], V_=V2, F_=F2, idx=inv[IDX][order], smoothing=float(s1["lambda"]))
+        b = run(c, vals[order], V_=V2, F_=F2, idx=inv[IDX][order], smoothing=float(np.ravel(s1["lambda"])[0]))
     np.testing.assert_allclose(b.values[inv], a.values, rtol=0, atol=1e-9 * np.ptp(vals))
 
 

@@ -402,8 +402,9 @@ def reconstruct_surface(surface, idx, vals, *, method=None, partition="delaunay"
                                                      untrusted)
     rng = vals if points is None else points.values
     lo, hi = rng.min(axis=0), rng.max(axis=0)
-    with np.errstate(invalid="ignore"):
-        over = float(np.nanmax(np.maximum(values - hi, lo - values))) if np.isfinite(values).any() else 0.0
+    # per column first (reductions, no (n, p) temporaries); fmax/fmin skip NaN (untrusted vertices)
+    d = np.maximum(np.fmax.reduce(values, axis=0) - hi, lo - np.fmin.reduce(values, axis=0))
+    over = float(np.nanmax(d)) if np.isfinite(d).any() else 0.0
     report["overshoot"] = over
     if points is not None:
         report["points"] = points_report(points, method in ENERGY_METHODS or method == "gp")

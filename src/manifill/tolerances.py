@@ -74,7 +74,8 @@ class Tolerances:
         them (round-off in ``side / h``) gets no extra voxel.
     energy_symmetry : float
         :class:`manifill.linalg.smoothing.SmoothingFit` refuses an energy ``A`` with
-        ``max |A - A^T| > energy_symmetry * max |A|``.
+        ``max |A - A^T| > energy_symmetry * max |A|``; :func:`manifill.linalg.factorise.factorise`
+        factorises such an ``A`` as general, not symmetric.
     smoothing_leverage : float
         A GCV denominator ``k - tr H`` below ``smoothing_leverage * k``, or a leverage
         ``H_ii`` within ``smoothing_leverage`` of 1, makes the score infinite

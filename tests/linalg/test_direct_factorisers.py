@@ -103,3 +103,44 @@ def test_pardiso_factors_are_freed_with_their_solver(monkeypatch):
     for _ in range(6):
         DirectSolver(Q).solve(np.ones(Q.shape[0]))
     assert _resident_bytes() - start < 2 * one  # six more factorisations cost no more than about one
+
+
+SPD_NAME = "pardiso (symmetric positive definite)"
+
+
+@pytest.mark.parametrize("system", ["spd", "kkt", "nonsymmetric"])
+def test_a_matrix_said_positive_definite_is_factorised_as_such_only_when_it_is(system, monkeypatch):
+    """spd=True: Pardiso's Cholesky factor for an SPD matrix; a symmetric indefinite one (a KKT system) or one
+    that is not symmetric goes to the general factorisation, and every one is solved."""
+    monkeypatch.setenv(DIRECT_ENV, "pardiso")
+    A = reduced_laplacian()
+    R = np.random.default_rng(3).standard_normal((A.shape[0], 3))
+    if system == "kkt":
+        A, R = kkt()
+    elif system == "nonsymmetric":
+        A = (A + sp.eye(A.shape[0], k=1, format="csr") * 1e-3).tocsr()
+    d = DirectSolver(A, spd=True)
+    assert d.factoriser == (SPD_NAME if system == "spd" else "pardiso")
+    X, _ = d.solve(R)
+    assert np.linalg.norm(A @ X - R) <= 1e-10 * np.linalg.norm(R)
+
+
+def test_the_cholesky_factor_gives_the_general_factors_solutions(monkeypatch):
+    monkeypatch.setenv(DIRECT_ENV, "pardiso")
+    A = reduced_laplacian()
+    R = np.asfortranarray(np.random.default_rng(4).standard_normal((A.shape[0], 70)))
+    X, _ = DirectSolver(A, spd=True).solve(R)
+    Y, _ = DirectSolver(A).solve(R)
+    np.testing.assert_allclose(X, Y, rtol=0, atol=1e-10 * np.abs(Y).max())
+
+
+def test_many_fields_factorise_one_large_positive_definite_system_with_pardiso_only(monkeypatch):
+    from manifill.linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
+
+    monkeypatch.setenv(DIRECT_ENV, "pardiso")
+    many = AUTO_DIRECT_FIELDS
+    assert auto_backend(100_000, 700_000, fields=many, spd=True) == "direct"
+    assert auto_backend(100_000, 700_000, fields=many - 1, spd=True) == "amg"  # few fields: CG per field
+    assert auto_backend(100_000, 700_000, fields=many) == "amg"  # not known SPD: SuperLU-sized fill-in rule
+    monkeypatch.setenv(DIRECT_ENV, "superlu")
+    assert auto_backend(100_000, 700_000, fields=many, spd=True) == "amg"

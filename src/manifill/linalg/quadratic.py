@@ -286,7 +286,7 @@ class QuadraticSolver:
         t3 = time.perf_counter()
         try:
             self._solver = make_linear_solver(K, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter,
-                                              factoriser=factoriser)
+                                              factoriser=factoriser, spd=Aeq is None)  # KKT: indefinite
         except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
             if Aeq is None:
                 raise

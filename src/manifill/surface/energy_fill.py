@@ -145,7 +145,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         raise OptionError("sample_weights weigh soft constraints; pass smoothing= too, or leave them out")
     auto = solver == "auto"
     if auto and fields >= AUTO_DIRECT_FIELDS and (Aeq is None or lohi is None):
-        solver = auto_backend(A.shape[0] - idx.size, A.nnz, fields)  # many fields: a factorisation if it fits
+        # many fields: a factorisation if it fits (a symmetric positive definite one without rows)
+        solver = auto_backend(A.shape[0] - idx.size, A.nnz, fields, spd=Aeq is None)
     if Aeq is not None:
         solver, tol, maxiter = _row_solver(k, surface.n - idx.size - Aeq.shape[0], solver, lohi, tol, maxiter)
     elif k > 1:  # the k-harmonic systems' own backend policy and tolerance

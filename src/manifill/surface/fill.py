@@ -191,7 +191,7 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
         backend, factoriser = solver, None
         if fields >= AUTO_DIRECT_FIELDS:  # many fields: a factorisation if it fits, by SuperLU (see factorise)
             if solver == "auto":
-                backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields, largest=largest)
+                backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields, largest=largest, spd=True)
             factoriser = "superlu" if largest is not None and largest <= AUTO_DIRECT_MAX else None
         hs = HarmonicSolver.from_laplacian(L, idx, solver=backend, on_empty=on_empty, iteration=iteration,
                                            tol=tol, maxiter=maxiter, symmetric_pattern=weights in ("uniform", "cotan"),

@@ -14,7 +14,7 @@ MAX_LINES = 500
 
 #: Lower layers never import higher ones at module level (imports inside functions may reach up
 #: for optional presentation: a result's ``to_pyvista``, a mask's file name).
-LAYERS = ["base", "mesh", "linalg", "surface", "solid", "io", "viz", "demo", "cli"]
+LAYERS = ["base", "mesh", "linalg", "surface", "solid", "io", "viz", "demo", "cli", "cluster"]
 BASE = {"errors", "tolerances", "validate", "memory", "progress", "results", "report", "__init__", "__main__"}
 
 

@@ -15,6 +15,7 @@ the subpackages are the layers (``docs/ARCHITECTURE.md`` draws them):
 - :mod:`manifill.io` - files in and out, one registry dispatched by suffix
 - :mod:`manifill.viz` - pictures and the interactive viewer
 - :mod:`manifill.cli` - the command line, one module per subcommand
+- :mod:`manifill.cluster` - batches of jobs (command lines) on a Dask cluster
 - base modules: :mod:`manifill.errors`, :mod:`manifill.tolerances`,
   :mod:`manifill.validate`, :mod:`manifill.results`, :mod:`manifill.memory`,
   :mod:`manifill.progress`, :mod:`manifill.report`
@@ -50,6 +51,7 @@ from .surface.partition import Partition, partition
 from .surface.reconstruct import Reconstruction, reconstruct, reconstruct_surface
 from .surface.reconstructor import Reconstructor
 from .io.stream import reconstruct_series
+from .cluster import BatchResult, batch
 from .surface.surface import Surface
 
 __all__ = [
@@ -57,7 +59,7 @@ __all__ = [
     "ManifillError", "MeshError", "SampleError", "OptionError", "SolveError", "ReadError", "WriteError",
     "ResourceError",
     # surfaces: the pipeline (Steps 1-6) and its steps
-    "reconstruct", "Reconstruction", "Reconstructor", "reconstruct_series",
+    "reconstruct", "Reconstruction", "Reconstructor", "reconstruct_series", "batch", "BatchResult",
     "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
     "CrossValidation", "locate_points", "SurfacePoints", "GPOptions", "gp_tets", "gp_voxels",

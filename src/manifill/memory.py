@@ -14,7 +14,11 @@ import os
 
 from .errors import ResourceError
 
-__all__ = ["available_bytes", "check_fits", "human", "lu_memory"]
+__all__ = ["LIMIT_ENV", "available_bytes", "check_fits", "human", "lu_memory"]
+
+#: Environment variable holding a memory limit in bytes for this process (a batch worker's), on top of the
+#: system's own limits: :func:`available_bytes` counts it less the process's resident memory.
+LIMIT_ENV = "MANIFILL_MEMORY_LIMIT"
 
 #: Limits at or above this are "no limit" (cgroup v1 writes 2**63 rounded down to a page).
 _UNLIMITED = 2**60
@@ -215,6 +219,9 @@ def available_bytes():
     - the soft ``RLIMIT_AS`` less the virtual size ``VmSize`` (and
       ``RLIMIT_DATA`` less ``VmData``).
 
+    - :data:`LIMIT_ENV`, when set, less what this process holds (``VmRSS``): the
+      memory limit a batch gives each worker (:mod:`manifill.cluster`).
+
     Returns
     -------
     int or None
@@ -225,7 +232,12 @@ def available_bytes():
     >>> avail is None or avail >= 0
     True
     """
-    return _available_bytes()
+    room = _available_bytes()
+    limit = os.environ.get(LIMIT_ENV, "").strip()
+    if limit.isdigit():
+        left = max(int(limit) - (_status_kb("/", "VmRSS") or 0), 0)
+        room = left if room is None else min(room, left)
+    return room
 
 
 def human(nbytes):

@@ -2,8 +2,8 @@
 
 Subcommands: ``info`` (what is in a mesh), ``check`` (the gradual variation
 condition of samples), ``reconstruct`` (the paper's pipeline), ``cv`` (which method to trust), ``harmonic`` (fill a
-field from the samples alone), ``volume`` (Steps 1-8 inside a solid), ``demo`` (the
-built-in example). Bad input ends with exit code 2 and one line
+field from the samples alone), ``volume`` (Steps 1-8 inside a solid), ``batch`` (many jobs on a Dask
+cluster), ``demo`` (the built-in example). Bad input ends with exit code 2 and one line
 ``manifill: error: ...`` on standard error, never a traceback; nothing is left
 half-written.
 """
@@ -18,13 +18,13 @@ import threading
 
 from .. import __version__
 from ..errors import ManifillError
-from . import check, cv, demo, harmonic, info, reconstruct, volume
+from . import batch, check, cv, demo, harmonic, info, reconstruct, volume
 from .common import err
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: one module per subcommand, in the order of the help
-COMMANDS = (info, harmonic, check, reconstruct, cv, volume, demo)
+COMMANDS = (info, harmonic, check, reconstruct, cv, volume, batch, demo)
 
 
 class _Parser(argparse.ArgumentParser):

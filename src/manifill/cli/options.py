@@ -62,13 +62,21 @@ def output_args(s):
 
 
 def series_args(s):
-    """--check and --chunk: many fields, and time series (an .xdmf, .pvd or .h5 output)."""
+    """--check, --chunk, --workers and --scheduler: many fields, and time series (an .xdmf, .pvd or .h5 output)."""
     s.add_argument("--check", action="store_true",
                    help="run Step 1 (the gradual variation report) for every field; by default it runs for up to "
                         "10 fields")
     s.add_argument("--chunk", type=int, default=None, metavar="T",
                    help="time series: reconstruct and write this many time steps at a time (default: by memory, "
                         "about 64 MB of values per chunk)")
+    g = s.add_mutually_exclusive_group()
+    g.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="time series: apply the chunks on N worker processes of this machine (a Dask LocalCluster, "
+                        "one thread each; needs the [batch] extra); the same file as without")
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="time series: apply the chunks on an existing Dask cluster (e.g. tcp://host:8786; its "
+                        "workers need manifill); without --workers or --scheduler, the environment variable "
+                        "DASK_SCHEDULER_ADDRESS, when set, is used")
 
 
 def energy_args(s):

@@ -4,13 +4,21 @@ The samples hold one value per time step (:func:`manifill.io.series.read_series`
 columns, a ``time`` column, or one file per step); a :class:`manifill.Reconstructor` is prepared
 once and applied to a chunk of steps at a time, each chunk written at once
 (:class:`manifill.io.series_write.SeriesWriter`), so memory does not grow with the number of
-steps. The output is all or nothing: an error or Ctrl-C leaves no file.
+steps. The output is all or nothing: an error or Ctrl-C leaves no file. ``--workers N`` (a Dask
+``LocalCluster`` of N processes, one thread each) or ``--scheduler ADDRESS`` (an existing
+cluster; else ``DASK_SCHEDULER_ADDRESS`` when set) applies the chunks on Dask workers, written
+here in time order: the same file.
 """
 
 import glob
+import os
+from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
+__all__ = ["SCHEDULER_ENV", "SERIES_OUTPUTS", "dask_client", "is_series", "run_series"]
+
+#: The environment variable naming a Dask scheduler when neither --workers nor --scheduler is given.
+SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
 
 #: Outputs that make ``reconstruct`` write a time series (``.npy`` too, when the samples are one).
 SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5")
@@ -68,17 +76,60 @@ def run_series(args, out, options, exact):
           f"({series.times[0]:g} .. {series.times[-1]:g}), in {chunks} chunk(s) of {step}")
     bar = StepBar(chunks, enabled=not args.quiet, desc="manifill reconstruct (time steps)")
     try:
-        done = reconstruct_series(V, F, **where, path=out, times=series.times, name=series.names[0], chunk=step,
-                                  progress=bar, check=True if args.check else None, **options)
+        with dask_client(getattr(args, "workers", None), getattr(args, "scheduler", None)) as client:
+            done = reconstruct_series(V, F, **where, path=out, times=series.times, name=series.names[0],
+                                      chunk=step, progress=bar, check=True if args.check else None, client=client,
+                                      **options)
     finally:
         bar.close()
     rep = done["report"]
     if rep.get("check"):
         bad = sum(not c["holds"] for c in rep["check"])
-        print(f"step 1 (the last chunk): gradual variation fails at {bad} of its steps" if bad else
-              "step 1 (the last chunk): gradual variation holds")
+        which = "the last step" if "map" in done["seconds"] else "the last chunk"
+        print(f"step 1 ({which}): gradual variation fails at {bad} of its steps" if bad else
+              f"step 1 ({which}): gradual variation holds")
     print(f"method: {rep['method']}" + (" (the default)" if rep.get("default") else "")
-          + (f", solver={rep['harmonic'].get('solver')}" if "harmonic" in rep else ""))
+          + (f", solver={rep['harmonic'].get('solver')}" if "harmonic" in rep else "")
+          + (f"; linear: {len(where['vals']):,} solves for its map, one product per chunk" if "map" in done["seconds"]
+             else ""))
     print_time(args, done["seconds"])
     print(f"wrote {out} ({T:,} steps)")
     return 0
+
+
+@contextmanager
+def dask_client(workers=None, scheduler=None):
+    """A ``distributed.Client`` for ``--workers N`` (a LocalCluster here) or ``--scheduler ADDRESS`` (else
+    :data:`SCHEDULER_ENV`), closed at the end, also on an error; None without any of them."""
+    from ..errors import OptionError
+
+    if workers is None and scheduler is None:
+        scheduler = os.environ.get(SCHEDULER_ENV) or None
+    if workers is None and scheduler is None:
+        yield None
+        return
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
+        raise OptionError(f"--workers {workers}: pass a number of worker processes >= 1")
+    from ..io.distributed import need_distributed
+
+    flag = "--workers" if workers is not None else "--scheduler"
+    distributed = need_distributed(flag)
+    import logging
+
+    cluster = None
+    try:
+        if workers is not None:
+            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                               dashboard_address=None, silence_logs=logging.CRITICAL)
+            client = distributed.Client(cluster)
+        else:
+            try:
+                client = distributed.Client(scheduler, timeout="30s")
+            except OSError as e:
+                raise OptionError(f"--scheduler {scheduler}: no Dask scheduler answers there ({e}); start one "
+                                  f"('dask scheduler') or pass its address") from None
+        with client:
+            yield client
+    finally:
+        if cluster is not None:
+            cluster.close()

@@ -19,7 +19,8 @@ from pathlib import Path
 
 from ..errors import ManifillError, ReadError, WriteError
 
-__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles"]
+__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles",
+           "KILL_ONCE_ENV", "kill_once_for_tests"]
 
 #: loggers of the parsers that print their notes through handlers of their own
 _PARSER_LOGGERS = ("nibabel",)
@@ -203,6 +204,7 @@ def atomic_path(path):
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     try:
         yield tmp
+        kill_once_for_tests()
         try:
             os.replace(tmp, path)
         except OSError as exc:
@@ -211,3 +213,21 @@ def atomic_path(path):
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+#: TEST ONLY. When this environment variable names a file that does not exist, :func:`atomic_path` creates
+#: that file and kills its own process (SIGKILL) after the temporary output is written and before it is renamed:
+#: how the batch tests (:mod:`manifill.cluster`) kill a worker in the middle of a job, once.
+KILL_ONCE_ENV = "MANIFILL_TEST_KILL_ONCE"
+
+
+def kill_once_for_tests():
+    """Kill this process if :data:`KILL_ONCE_ENV` names a marker file not yet there (creating it first)."""
+    marker = os.environ.get(KILL_ONCE_ENV)
+    if not marker or os.path.exists(marker):
+        return
+    import signal
+
+    with open(marker, "w") as fh:
+        fh.write(f"killed process {os.getpid()}\n")
+    os.kill(os.getpid(), signal.SIGKILL)

@@ -3,7 +3,9 @@
 :func:`reconstruct_series` prepares one :class:`manifill.Reconstructor` for the mesh and the
 samples, applies it to a chunk of time steps at a time and hands each chunk to a
 :class:`~manifill.io.series_write.SeriesWriter` (``.xdmf``, ``.pvd``, ``.h5``, ``.npy``), so that
-only one chunk of ``(n, t)`` values is in memory at once. The file appears at the end, whole, or
+only one chunk of ``(n, t)`` values is in memory at once. A linear reconstruction with many more
+time steps than samples (an EEG: 70 channels, 10,000 steps) goes through its dense ``(n, k)`` map
+instead: ``k`` solves once, then one matrix product per chunk (:func:`dense_map`). The file appears at the end, whole, or
 not at all (an error or Ctrl-C on the way leaves nothing). ``manifill reconstruct MESH SAMPLES -o
 OUT.xdmf`` is this function.
 """
@@ -17,10 +19,15 @@ from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, sample_mask
 from ..surface.reconstructor import Reconstructor
 from .series_write import SeriesWriter
 
-__all__ = ["CHUNK_BYTES", "chunk_size", "reconstruct_series"]
+__all__ = ["CHUNK_BYTES", "MAP_BYTES", "MAP_STEPS_PER_SAMPLE", "apply_chunk", "chunk_size", "dense_map",
+           "reconstruct_series"]
 
 #: Bytes of values one chunk of time steps may hold (the result and the solver's copies: about 4x this).
 CHUNK_BYTES = 64 * 2**20
+#: A linear series goes through its dense n x k map when it has this many time steps per sample or more ...
+MAP_STEPS_PER_SAMPLE = 2
+#: ... and the map takes at most this many bytes.
+MAP_BYTES = 256 * 2**20
 
 
 def chunk_size(n, steps, given=None):
@@ -38,7 +45,8 @@ def chunk_size(n, steps, given=None):
     return int(max(1, min(steps, CHUNK_BYTES // (8 * max(n, 1)))))
 
 
-def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk=None, progress=None, **options):
+def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk=None, progress=None, client=None,
+                       **options):
     """Reconstruct ``T`` time steps and write them as a series file, one chunk of steps at a time.
 
     Parameters
@@ -57,7 +65,15 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     chunk : int, optional
         Time steps per chunk (default: :func:`chunk_size`).
     progress : callable, optional
-        Called with ``'steps a-b'`` as each chunk starts.
+        Called with ``'steps a-b'`` as each chunk starts (with a ``client``: as it is written).
+    client : distributed.Client, optional
+        Apply the chunks on this Dask cluster's workers (:func:`manifill.io.distributed.ordered_map`):
+        the Reconstructor is prepared here, sent once to every worker (each factorises again at its
+        first chunk; the partition and Step 4's map travel with it), at most two chunks per worker
+        are out at once, and the chunks are written here in time order as they come back: the same
+        file as without a client. The caller owns the client (it is not closed here); workers need
+        manifill installed. None (default): every chunk in this process. A linear series long enough
+        for its dense map (:func:`dense_map`) runs here: one product per chunk.
     **options
         The options of :func:`manifill.reconstruct` (``method``, ``solver``, ...), but
         ``uncertainty`` and ``trust`` (a series file holds the values alone).
@@ -65,8 +81,11 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     Returns
     -------
     dict
-        ``steps``, ``chunk``, ``chunks``, ``seconds`` (``prepare``, ``reconstruct``,
-        ``write``, ``total``) and ``report``: the last chunk's reconstruction report.
+        ``steps``, ``chunk``, ``chunks``, ``seconds`` (``prepare``, ``reconstruct``: the chunks'
+        applies, summed over workers with a client, ``write``, ``total``; with a client also ``send``,
+        the broadcast, and ``wait``, the time blocked on results; through the dense map, ``map``: its
+        ``k`` solves) and ``report``: the last chunk's reconstruction report (through the map: the
+        last step's).
 
     Raises
     ------
@@ -101,29 +120,103 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     rec = Reconstructor(V, F, idx, fields=T, **options)
     n = rec.surface.n
     step = chunk_size(n, T, chunk)
+    starts = range(0, T, step)
     seconds = {"prepare": time.perf_counter() - t0, "reconstruct": 0.0, "write": 0.0}
-    writer, r = None, None
+    W = dense_map(rec, T, options.get("check"), seconds)
+    if W is not None:  # k solves once, then one product per chunk: here, whatever the client
+        last = apply_chunk(rec, vals[:, T - 1:], True)
+
+        def blocks():
+            for s in starts:
+                if progress is not None:
+                    progress(f"steps {s}-{min(s + step, T) - 1}")
+                t = time.perf_counter()
+                rec.check_values(vals[:, s:s + step])
+                values = W @ vals[:, s:s + step]
+                yield values, last[1], last[2] if s == 0 else None, time.perf_counter() - t
+        results = blocks()
+    elif client is None:
+        def blocks():
+            for s in starts:
+                if progress is not None:
+                    progress(f"steps {s}-{min(s + step, T) - 1}")
+                yield apply_chunk(rec, vals[:, s:s + step], s == 0)
+        results = blocks()
+    else:
+        from .distributed import ordered_map
+
+        seconds.update(send=0.0, wait=0.0)
+        results = ordered_map(client, apply_chunk, rec, ((vals[:, s:s + step], s == 0) for s in starts),
+                              seconds=seconds)
+    writer, report = None, None
     try:
-        for s in range(0, T, step):
-            if progress is not None:
+        for s in starts:
+            values, report, static, spent = next(results)
+            seconds["reconstruct"] += spent
+            t = time.perf_counter()
+            if client is not None and progress is not None:
                 progress(f"steps {s}-{min(s + step, T) - 1}")
-            t = time.perf_counter()
-            r = rec.apply(vals[:, s:s + step])
-            seconds["reconstruct"] += time.perf_counter() - t
-            t = time.perf_counter()
             if writer is None:  # the masks do not change in time: given with the first chunk
-                static = {SAMPLE_MASK: sample_mask(n, r.idx)}
-                if r.report.get("partition"):
-                    static[CURVE_MASK] = np.asarray(r.on_curve, dtype=bool)
-                    static[PATCH_LABEL] = np.asarray(r.components)
                 writer = SeriesWriter(path, rec.surface.V, rec.surface.F, names=name, steps=T,
                                       static=None if str(path).lower().endswith(".npy") else static)
-            writer.write(np.asarray(r.values, dtype=np.float64).reshape(n, -1), times[s:s + step])
+            writer.write(values, times[s:s + step])
             seconds["write"] += time.perf_counter() - t
         writer.close()
     except BaseException:
         if writer is not None:
             writer.abort()
         raise
+    finally:
+        results.close()  # a Dask run cancels the chunks not yet done
     seconds["total"] = time.perf_counter() - t0
-    return {"steps": T, "chunk": step, "chunks": -(-T // step), "seconds": seconds, "report": r.report}
+    return {"steps": T, "chunk": step, "chunks": len(starts), "seconds": seconds, "report": report}
+
+
+def apply_chunk(rec, block, first):
+    """One chunk: ``(values (n, c), report, static, seconds)``; ``static`` (the masks) for the first chunk only.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> V, F = icosphere(1)
+    >>> rec = Reconstructor(V, F, [0, 5, 20], method="harmonic")
+    >>> values, report, static, _ = apply_chunk(rec, np.eye(3), True)
+    >>> values.shape, sorted(static), int(static["sample_mask"].sum())
+    ((42, 3), ['sample_mask'], 3)
+    """
+    t = time.perf_counter()
+    r = rec.apply(block)
+    n = rec.surface.n
+    static = None
+    if first:
+        static = {SAMPLE_MASK: sample_mask(n, r.idx)}
+        if r.report.get("partition"):
+            static[CURVE_MASK] = np.asarray(r.on_curve, dtype=bool)
+            static[PATCH_LABEL] = np.asarray(r.components)
+    return np.asarray(r.values, dtype=np.float64).reshape(n, -1), r.report, static, time.perf_counter() - t
+
+
+def dense_map(rec, steps, check=None, seconds=None):
+    """The dense ``(n, k)`` map ``W`` of a linear Reconstructor when a series of ``steps`` pays for it, else None.
+
+    A linear reconstruction of ``T`` time steps costs ``T`` solves; through ``W`` it costs ``k``
+    (the samples' unit values, in blocks) and one ``(n, k) x (k, t)`` product per chunk. Built when
+    ``rec.linear``, ``steps >= MAP_STEPS_PER_SAMPLE * k``, ``W`` takes at most :data:`MAP_BYTES`
+    and Step 1 is not asked for every step (``check=True``). ``seconds`` gets ``map`` added.
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> V, F = icosphere(2)
+    >>> rec = Reconstructor(V, F, [0, 40, 80, 120], method="harmonic")
+    >>> dense_map(rec, 8).shape, dense_map(rec, 7) is None
+    ((162, 4), True)
+    """
+    n, k = rec.surface.n, rec.samples
+    if not rec.linear or check is True or steps < MAP_STEPS_PER_SAMPLE * k or 8.0 * n * k > MAP_BYTES:
+        return None
+    t = time.perf_counter()
+    W = np.ascontiguousarray(rec.matrix(form="operator").matmat(np.eye(k)).reshape(n, k))
+    if seconds is not None:
+        seconds["map"] = time.perf_counter() - t
+    return W

@@ -23,6 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError
+from ..linalg.quadratic import QuadraticSolver
 from ..validate import as_indices, as_mesh, as_samples, check_option
 from .energy_fill import ENERGY_METHODS, as_bounds
 from .gp import check_gp_for, check_uncertainty
@@ -116,6 +117,7 @@ class Reconstructor:
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
         self.surface = Surface.from_mesh(V, F, distance=distance, check=False)
+        self._distance = distance  # to rebuild the surface where a pickled Reconstructor lands
         self.seconds["graph"] = time.perf_counter() - t
         self.fields = math.inf if fields is None else int(fields)
         self._options = dict(method=method, partition=partition, weights=weights, levels=levels,
@@ -126,6 +128,28 @@ class Reconstructor:
         self._prepared = Prepared()
         if prepare:
             self._prepare(progress)
+
+    def __getstate__(self):
+        """What a pickle holds: the mesh and the plain prepared pieces, not the process-local solvers.
+
+        The surface goes as ``(V, F)`` (its graphs and Laplacians are rebuilt in a few
+        hundredths of the preparation's time); the partition, Step 4's curve map and the
+        energy matrix go as they are; the fill's and the energy's solvers (a factorisation
+        or an AMG hierarchy, which cannot leave their process) are left out, and built again by
+        the first :meth:`apply` where the Reconstructor lands, with the same options and
+        ``fields`` hint, so that it gives the same values.
+        """
+        state = dict(self.__dict__)
+        state["surface"] = (self.surface.V, self.surface.F)
+        state["_prepared"] = {k: v for k, v in self._prepared.items() if not _process_local(v)}
+        return state
+
+    def __setstate__(self, state):
+        """Rebuild the surface; the solvers wait for the first :meth:`apply` (``prepared.cached``)."""
+        V, F = state["surface"]
+        self.__dict__.update(state)
+        self.surface = Surface.from_mesh(V, F, distance=self._distance, check=False)
+        self._prepared = Prepared(state["_prepared"])
 
     def _prepare(self, progress):
         """Build the value-independent pieces by one run on zero values, without Step 1, bounds or the std."""
@@ -199,6 +223,16 @@ class Reconstructor:
         """
         return self._run(vals, self._options, self.duplicates, progress)
 
+    def check_values(self, vals):
+        """Refuse values as :meth:`apply` would (shape, NaN, conflicting duplicates), without solving anything.
+
+        Raises
+        ------
+        SampleError
+            As :meth:`apply`.
+        """
+        self._samples(vals, self.duplicates)
+
     def matrix(self, *, form="auto"):
         """The interpolation map ``W`` (n x k) with ``W @ vals == apply(vals).values``, for the linear methods.
 
@@ -252,6 +286,11 @@ class Reconstructor:
         W = sp.csr_array(sp.hstack(blocks, format="csr"))
         W.eliminate_zeros()
         return W
+
+
+def _process_local(piece):
+    """Whether a prepared piece holds a solver that cannot leave its process (a factorisation, an AMG hierarchy)."""
+    return isinstance(piece, QuadraticSolver)  # the fill's HarmonicSolver is one
 
 
 def _linearity(method, curve_values, bounds, smoothing, gp, trust, untrusted):

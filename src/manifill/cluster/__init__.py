@@ -1,0 +1,33 @@
+"""Batches: many jobs (meshes, samples, options) run on a Dask cluster, or on this machine's cores.
+
+A job is one ``manifill reconstruct`` or ``manifill volume`` command line; a batch is a list
+of them, from a manifest (CSV or TOML, :mod:`manifill.cluster.manifest`) or from Python.
+:func:`batch` (:mod:`manifill.cluster.run`) hands them to ``dask.distributed``: a
+``LocalCluster`` with one worker process per core by default, or an existing cluster by its
+scheduler's address. Each job runs in-process on a worker exactly as the command line would
+(the same options, checks and one-line errors), writes its outputs atomically, and gets one
+row in the batch's summary CSV; a re-run skips the jobs whose inputs, options and outputs are
+unchanged. manifill schedules nothing itself: Dask does, and retries a job whose worker died.
+
+``dask`` and ``distributed`` are the optional ``[batch]`` extra, imported when a batch runs.
+"""
+
+__all__ = ["batch", "BatchResult", "need_distributed", "EXTRA"]
+
+from ..io.distributed import EXTRA
+
+
+def need_distributed():
+    """``distributed``, imported; manifill's own error naming the ``[batch]`` extra when it is missing.
+
+    Raises
+    ------
+    OptionError
+        ``dask.distributed`` is not installed.
+    """
+    from ..io.distributed import need_distributed as need
+
+    return need("a batch on a Dask cluster")
+
+
+from .run import BatchResult, batch  # noqa: E402 - run.py imports need_distributed from here

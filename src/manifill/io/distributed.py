@@ -1,0 +1,124 @@
+"""Chunks of work on the workers of a Dask cluster, handed back in order: one shared object, sent once.
+
+:func:`ordered_map` is what :func:`manifill.io.stream.reconstruct_series` runs with a
+``distributed.Client``: the shared object (a pickled :class:`manifill.Reconstructor`, whose
+factorisation each worker builds again at its first chunk) goes once to every worker
+(``Client.scatter(..., broadcast=True)``), each chunk is one task (``Client.submit``,
+``pure=False``), and the results come back in the order of the chunks, however they finish
+(a reorder buffer), with at most :data:`IN_FLIGHT` chunks per worker submitted and not yet
+handed back, so that memory is bounded whatever the number of chunks. A chunk that raises
+cancels the rest and raises its error in the caller.
+
+``dask`` and ``distributed`` are the optional ``[batch]`` extra; nothing here imports them at
+module level (:func:`need_distributed`).
+"""
+
+import threading
+import time
+
+__all__ = ["IN_FLIGHT", "EXTRA", "need_distributed", "ordered_map", "one_at_a_time"]
+
+#: Chunks per worker submitted and not yet handed back (computing, queued or waiting for an earlier one).
+IN_FLIGHT = 2
+
+#: What installs dask and distributed.
+EXTRA = "pip install 'manifill[batch]'"
+
+#: One chunk at a time in a worker process: a factorisation is not shared by concurrent solves.
+_APPLY = threading.Lock()
+
+
+def need_distributed(what="this"):
+    """``distributed``, imported; manifill's own one-line error naming the ``[batch]`` extra when it is missing.
+
+    Raises
+    ------
+    OptionError
+        ``dask.distributed`` is not installed.
+    """
+    from ..errors import OptionError
+
+    try:
+        import distributed
+    except ImportError:
+        raise OptionError(f"{what} needs dask and distributed (the [batch] extra): {EXTRA}") from None
+    return distributed
+
+
+def one_at_a_time(fn, *args):
+    """``fn(*args)`` under this process's lock (workers with several threads run one chunk at a time).
+
+    Examples
+    --------
+    >>> one_at_a_time(max, 2, 3)
+    3
+    """
+    with _APPLY:
+        return fn(*args)
+
+
+def ordered_map(client, fn, shared, args, *, in_flight=IN_FLIGHT, seconds=None):
+    """``fn(shared, *a)`` for each tuple ``a`` of ``args``, on the client's workers; yielded in the order of ``args``.
+
+    Parameters
+    ----------
+    client : distributed.Client
+        The cluster's client (the caller's: it is not closed here).
+    fn : callable
+        A module-level function (workers import it by name); run under :func:`one_at_a_time`.
+    shared : object
+        Sent once to every worker (picklable).
+    args : iterable of tuple
+        One per task, read as tasks are submitted.
+    in_flight : int, optional
+        Tasks per worker submitted and not yet yielded (at least 1).
+    seconds : dict, optional
+        Gets ``send`` (the broadcast) and ``wait`` (time blocked on results) added.
+
+    Yields
+    ------
+    object
+        ``fn(shared, *a)``, in order.
+
+    Raises
+    ------
+    Exception
+        The first error of a task (its own type and message); the tasks not finished are cancelled.
+    """
+    distributed = need_distributed("a series on a Dask cluster")
+    seconds = {} if seconds is None else seconds
+    t = time.perf_counter()
+    remote = client.scatter(shared, broadcast=True, hash=False)
+    seconds["send"] = seconds.get("send", 0.0) + time.perf_counter() - t
+    limit = max(1, int(in_flight)) * max(1, len(client.nthreads()))
+    tasks = enumerate(args)
+    pending, ready, nxt = {}, {}, 0  # future -> position; position -> result; next position to yield
+    finished = distributed.as_completed()
+
+    def submit():
+        for i, a in tasks:
+            f = client.submit(one_at_a_time, fn, remote, *a, pure=False)
+            pending[f] = i
+            finished.add(f)
+            return True
+        return False
+
+    try:
+        while len(pending) + len(ready) < limit and submit():
+            pass
+        while pending:
+            t = time.perf_counter()
+            f = next(finished)
+            i = pending.pop(f)
+            ready[i] = f.result()  # a task's error is raised here, as itself
+            seconds["wait"] = seconds.get("wait", 0.0) + time.perf_counter() - t
+            f.release()
+            while nxt in ready:
+                yield ready.pop(nxt)
+                nxt += 1
+                while len(pending) + len(ready) < limit and submit():
+                    pass
+    finally:
+        if pending:
+            client.cancel(list(pending))
+        remote.release()

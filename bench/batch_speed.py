@@ -150,7 +150,6 @@ def compare_outputs(folder):
 
 def series_run(folder, level, k, fields, workers):
     """Part 2: one mesh's fields written as .npy, in this process (workers 0) or over a LocalCluster."""
-    import logging
 
     from manifill.io.stream import reconstruct_series
     from manifill.mesh.shapes import icosphere
@@ -164,8 +163,9 @@ def series_run(folder, level, k, fields, workers):
     if workers:
         import distributed
 
-        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                           dashboard_address=None, silence_logs=logging.ERROR)
+        from manifill.io.distributed import local_cluster
+
+        cluster = local_cluster(workers)
         client = distributed.Client(cluster)
         started = time.perf_counter() - t0
         s = reconstruct_series(V, F, idx, vals, out, client=client)
@@ -188,16 +188,15 @@ def _noop():
 
 def overhead(folder, tasks, workers):
     """Part 3: the scheduler's wall time per empty task, and manifill.batch's per job on no-op jobs."""
-    import logging
 
     import distributed
 
     import manifill
     from manifill.cluster import run as batch_run
+    from manifill.io.distributed import local_cluster
 
     tasks, workers = int(tasks), int(workers)
-    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+    cluster = local_cluster(workers)
     client = distributed.Client(cluster)
     client.gather(client.map(lambda x: x, range(20), pure=False))  # warm up
     t = time.perf_counter()
@@ -276,7 +275,8 @@ def main(argv=None):
                  "batch_wall_with_interpreter": wall, "speedup": ser["seconds"] / par["seconds"],
                  "counts": par["counts"], "peak_mb_per_worker": per_worker,
                  "job_peak_mb": {r["id"]: float(r["peak_mb"] or 0) for r in par["rows"]},
-                 "job_seconds_serial": ser["job_seconds"], "max_abs_diff": diff}
+                 "job_seconds_serial": ser["job_seconds"], "max_abs_diff": diff,
+                 "job_seconds_batch": {r["id"]: float(r["seconds"] or 0) for r in par["rows"]}}
             out["meshes"] = m
             print(f"meshes: serial {ser['seconds']:.1f} s, batch {par['seconds']:.1f} s -> {m['speedup']:.2f}x",
                   file=sys.stderr, flush=True)

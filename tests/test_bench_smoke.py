@@ -79,3 +79,20 @@ def test_many_fields_smoke(tmp_path):
         assert r["igl_vs_manifill"] <= 1e-10
         assert r["fixed"] == (r["k"] if r["method"] == "harmonic" else r["igl_fixed"])
         assert {"reconstruct", "build", "all", "chunks", "one", "igl"} <= set(r["seconds"])
+
+
+def test_batch_speed_smoke(tmp_path):
+    # python -m bench.batch_speed --smoke: the serial loop and the batch on a LocalCluster give the same files, a
+    # series over workers equals one process's, the scheduler's overhead is measured, and the JSON is written
+    pytest.importorskip("distributed")
+    out = tmp_path / "batch_speed.json"
+    p = subprocess.run([sys.executable, "-m", "bench.batch_speed", "--smoke", "--out", str(out)], cwd=ROOT,
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-4000:]
+    d = json.loads(out.read_text(encoding="utf-8"))
+    m, f, o = d["meshes"], d["fields"], d["overhead"]
+    assert m["counts"] == {"done": 4} and m["max_abs_diff"] <= 1e-12 and len(m["peak_mb_per_worker"]) == 2
+    assert m["serial_seconds"] > 0 and m["batch_seconds"] > 0 and min(m["job_peak_mb"].values()) > 10
+    assert f["max_abs_diff"] <= 1e-12 and f["one"]["fields"] == f["workers"]["fields"] == 40
+    assert o["counts"] == {"done": 50} and o["per_task_ms"] > 0 and d["estimate"]["subjects"] == 10_000
+    assert "| jobs | vertices |" in p.stdout and "On paper" in p.stdout

@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from manifill.errors import ResourceError
@@ -43,3 +44,26 @@ def test_the_kill_hook_dies_once_between_the_temporary_file_and_the_rename(tmp_p
     assert [p.name.startswith(".o.txt.") for p in tmp_path.iterdir() if p.name != "marker"] == [True]  # the stale temp
     second = subprocess.run([sys.executable, "-c", WRITE, str(out)], env=env, capture_output=True)
     assert second.returncode == 0 and out.read_text() == "whole"
+
+
+def test_a_mesh_read_twice_in_a_job_is_parsed_once_and_each_read_is_its_own_copy(tmp_path, monkeypatch):
+    from manifill.io import registry
+    from manifill.mesh.shapes import icosphere
+
+    path = tmp_path / "s.ply"
+    V, F = icosphere(2)
+    registry.write_mesh(path, V, F)
+    parsed = []
+    real = registry._read_mesh_file
+    monkeypatch.setattr(registry, "_read_mesh_file", lambda p, fmt: parsed.append(p) or real(p, fmt))
+    with registry.reading_once():
+        a = registry.read_mesh_file(path)
+        a.V[:] = 0.0  # a caller's change does not reach the next read
+        b = registry.read_mesh_file(path)
+        assert len(parsed) == 1 and np.array_equal(b.V, V) and np.array_equal(b.F, F)
+        registry.write_mesh(path, 2 * V, F)  # a changed file is parsed again
+        c = registry.read_mesh_file(path)
+        assert len(parsed) == 2 and np.allclose(c.V, 2 * V)
+    registry.read_mesh_file(path)
+    registry.read_mesh_file(path)
+    assert len(parsed) == 4  # outside the block every read parses

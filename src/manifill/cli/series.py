@@ -110,17 +110,15 @@ def dask_client(workers=None, scheduler=None):
         return
     if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise OptionError(f"--workers {workers}: pass a number of worker processes >= 1")
-    from ..io.distributed import need_distributed
+    from ..io.distributed import local_cluster, need_distributed
 
     flag = "--workers" if workers is not None else "--scheduler"
     distributed = need_distributed(flag)
-    import logging
 
     cluster = None
     try:
         if workers is not None:
-            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                               dashboard_address=None, silence_logs=logging.CRITICAL)
+            cluster = local_cluster(workers, what=flag)
             client = distributed.Client(cluster)
         else:
             try:

@@ -321,6 +321,10 @@ def _finish(jobs, wheres, base, bad, manifest=None):
             if key in writers:
                 raise bad(f"{where}: writes {key}, as {writers[key]} does; give every job its own output")
             writers[key] = where
+    folders = {}  # every folder above an output -> the first job writing under it (one lookup per input, not a scan)
+    for key, where in writers.items():
+        for parent in key.parents:
+            folders.setdefault(parent, where)
     for job, where in zip(named, wheres):
         mesh, samples = job.mesh.resolve(), job.samples.resolve()
         for out in job.outputs():
@@ -332,8 +336,9 @@ def _finish(jobs, wheres, base, bad, manifest=None):
                 raise bad(f"{where}: its output {out} would be read back as one of its samples ({job.samples}); "
                           f"write the output outside them")
         for name, path in (("mesh", mesh), ("samples", samples)):
-            other = writers.get(path) or next((w for k, w in writers.items() if _matches(k, path) or path in k.parents),
-                                              None)
+            other = writers.get(path) or folders.get(path)
+            if other is None and any(c in str(path) for c in "*?["):  # a pattern: the outputs it matches
+                other = next((w for k, w in writers.items() if _matches(k, path)), None)
             if other is not None:
                 raise bad(f"{where}: reads its {name} {path}, which {other} writes; the jobs of a batch run in any "
                           f"order: run that one in an earlier batch")

@@ -26,7 +26,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ManifillError, OptionError
+from ..io.distributed import local_cluster
 from ..io.files import KILL_ONCE_ENV, atomic_path
+from ..io.registry import reading_once
 from ..memory import LIMIT_ENV, human
 from . import need_distributed
 
@@ -164,8 +166,8 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
         distributed = need_distributed()
         with _client(distributed, scheduler, workers, memory_limit) as client:
             count = len(client.scheduler_info().get("workers", {}))
-            futures = {client.submit(run_job, job, digest, key=f"manifill-job-{job.id}-{digest[:12]}",
-                                     pure=False): (job, digest) for job, digest in todo}
+            futures = {client.submit(run_job, job, digest, key=f"manifill-job-{job.id}-{digest[:12]}", pure=False,
+                                     priority=_size(job)): (job, digest) for job, digest in todo}
             for future in distributed.as_completed(futures):
                 job, digest = futures[future]
                 try:
@@ -181,6 +183,15 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
                        workers=count)
 
 
+def _size(job):
+    """The job's mesh file size in bytes: Dask starts larger jobs first, so that no worker is left with a big one
+    at the end while the others wait."""
+    try:
+        return Path(job.mesh).stat().st_size
+    except OSError:
+        return 0
+
+
 def _summary_path(jobs, summary):
     if summary is not None:
         return Path(summary)
@@ -193,7 +204,6 @@ def _summary_path(jobs, summary):
 @contextlib.contextmanager
 def _client(distributed, scheduler, workers, memory_limit):
     """A client of the cluster the batch runs on (one it made is closed at the end)."""
-    import logging
 
     if isinstance(scheduler, distributed.Client):
         yield scheduler
@@ -214,9 +224,7 @@ def _client(distributed, scheduler, workers, memory_limit):
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise OptionError(f"workers={workers!r} is not a whole number >= 1; pass one (default: one per core)")
     n = workers or os.cpu_count() or 1
-    cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                       memory_limit="auto" if memory_limit is None else memory_limit,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+    cluster = local_cluster(n, "auto" if memory_limit is None else memory_limit, "a batch on a Dask cluster")
     with cluster, distributed.Client(cluster) as client:
         yield client
 
@@ -374,6 +382,11 @@ def run_job(job, digest):
 
     Never raises for the job's own failures: they are the row's ``status`` and ``error``.
     """
+    with reading_once():  # the mesh is parsed once, for the estimate and the command line
+        return _run_job(job, digest)
+
+
+def _run_job(job, digest):
     from ..cli.main import main
 
     t0 = time.perf_counter()

@@ -16,7 +16,7 @@ module level (:func:`need_distributed`).
 import threading
 import time
 
-__all__ = ["IN_FLIGHT", "EXTRA", "need_distributed", "ordered_map", "one_at_a_time"]
+__all__ = ["IN_FLIGHT", "EXTRA", "need_distributed", "local_cluster", "ordered_map", "one_at_a_time"]
 
 #: Chunks per worker submitted and not yet handed back (computing, queued or waiting for an earlier one).
 IN_FLIGHT = 2
@@ -43,6 +43,34 @@ def need_distributed(what="this"):
     except ImportError:
         raise OptionError(f"{what} needs dask and distributed (the [batch] extra): {EXTRA}") from None
     return distributed
+
+
+def local_cluster(workers, memory_limit="auto", what="this"):
+    """A ``distributed.LocalCluster`` of ``workers`` processes, one thread each, for manifill's work.
+
+    As Dask's own but for one setting: Dask starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``
+    (``distributed.nanny.pre-spawn-environ``), which fixes glibc's thresholds so that every array
+    above 128 KiB is mapped and unmapped afresh; manifill's jobs, which allocate and free many
+    arrays of megabytes, ran 1.5x slower so (measured: 10.5 s against 6.8 s for eight 40k-160k
+    jobs in one process). The workers here keep glibc's adaptive default. No dashboard port is
+    claimed (``:0``: any free one).
+
+    Raises
+    ------
+    OptionError
+        ``dask.distributed`` is not installed (the ``[batch]`` extra).
+    """
+    import logging
+
+    distributed = need_distributed(what)
+    import dask
+
+    env = {k: v for k, v in (dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {}).items()
+           if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": env}):
+        return distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
+                                        memory_limit=memory_limit, dashboard_address=":0",
+                                        silence_logs=logging.ERROR)
 
 
 def one_at_a_time(fn, *args):

@@ -642,3 +642,25 @@ def test_mutated_files_fail_cleanly(tmp_path):
     assert not escaped, escaped[:5]
     assert sum(counts.values()) > 500
     assert counts.get(("truncate", "ReadError"), 0) > 100 and counts.get(("flip", "read"), 0) > 10
+
+
+def test_a_series_cache_writes_the_same_bytes_and_encodes_the_mesh_once(tmp_path, monkeypatch):
+    from manifill.io import vtkxml_write
+    from manifill.mesh.shapes import icosphere
+
+    V, F = icosphere(2)
+    x = np.linspace(0.0, 1.0, len(V))
+    mask = x > 0.5
+    for i in range(3):
+        vtkxml_write.write_unstructured(tmp_path / f"plain{i}.vtu", V, F, {"value": x + i, "Points": mask})
+    calls = []
+    real = vtkxml_write.zlib.compress
+    monkeypatch.setattr(vtkxml_write.zlib, "compress", lambda b, lv: calls.append(len(b)) or real(b, lv))
+    cache = {}
+    for i in range(3):
+        vtkxml_write.write_unstructured(tmp_path / f"cached{i}.vtu", V, F, {"value": x + i, "Points": mask},
+                                        cache=cache, constant={"Points"})
+    for i in range(3):
+        assert (tmp_path / f"cached{i}.vtu").read_bytes() == (tmp_path / f"plain{i}.vtu").read_bytes()
+    # first file: value, the field named Points, points, connectivity, offsets, types; then the value alone
+    assert len(calls) == 6 + 1 + 1

@@ -443,6 +443,7 @@ class _Pvd:
         self.xml = _Temp(w.path)
         self.dir = _Temp(self.folder)
         self.fh = None
+        self.encoded = {}  # the mesh and the masks, encoded for the first step's file and reused
         try:
             self.dir.path.mkdir()
             self.fh = open(self.xml.path, "w", encoding="utf-8", newline="\n")
@@ -459,7 +460,8 @@ class _Pvd:
         lines = []
         for i in range(X.shape[1]):
             name = _PVD_STEP.format(stem=w.path.stem, j=j0 + i)
-            write_unstructured(self.dir.path / name, w.V, w.C, {w.name: X[:, i], **w.static})
+            write_unstructured(self.dir.path / name, w.V, w.C, {w.name: X[:, i], **w.static}, cache=self.encoded,
+                               constant=w.static)
             lines.append(f'    <DataSet timestep="{float(times[i])!r}" group="" part="0" '
                          f'file={quoteattr(self.folder.name + "/" + name)}/>\n')
         self.fh.write("".join(lines))

@@ -82,8 +82,16 @@ def _header(kind):
             f'compressor="vtkZLibDataCompressor">\n')
 
 
-def _write_array(fh, name, values, p, indent):
-    """One zlib-compressed inline binary DataArray of flat ``values`` (p components)."""
+def _write_array(fh, name, values, p, indent, cache=None):
+    """One zlib-compressed inline binary DataArray of flat ``values`` (p components).
+
+    ``cache`` (a dict kept by the caller): the encoded array is kept there under ``name`` and
+    written again as it is next time; only for arrays the caller knows unchanged (a series'
+    mesh and masks, step after step).
+    """
+    if cache is not None and name in cache:
+        fh.write(cache[name])
+        return
     raw = np.ascontiguousarray(values, dtype=values.dtype.newbyteorder("<")).tobytes()
     blocks = [zlib.compress(raw[i:i + _BLOCK], _LEVEL) for i in range(0, len(raw), _BLOCK)]
     header = np.array([len(blocks), _BLOCK, len(raw) % _BLOCK] + [len(b) for b in blocks], dtype="<u8")
@@ -91,8 +99,11 @@ def _write_array(fh, name, values, p, indent):
     blob = base64.b64encode(header.tobytes()) + base64.b64encode(b"".join(blocks))
     kind = _VTK_NAMES[values.dtype.newbyteorder("=")]
     comps = f' NumberOfComponents="{p}"' if p != 1 else ""  # VTK's default; meshio then keeps (n,) arrays
-    fh.write(f'{indent}<DataArray type="{kind}" Name="{_xml(name)}"{comps} format="binary">\n'
-             f'{indent}  {blob.decode("ascii")}\n{indent}</DataArray>\n')
+    text = (f'{indent}<DataArray type="{kind}" Name="{_xml(name)}"{comps} format="binary">\n'
+            f'{indent}  {blob.decode("ascii")}\n{indent}</DataArray>\n')
+    if cache is not None:
+        cache[name] = text
+    fh.write(text)
 
 
 def _point_arrays(point_data, n):
@@ -112,9 +123,14 @@ def _point_arrays(point_data, n):
     return arrays
 
 
-def _write_cells(path, kind, V, C, arrays):
-    """PolyData of triangles, or an UnstructuredGrid of triangles or tetrahedra, with point arrays."""
+def _write_cells(path, kind, V, C, arrays, cache=None, constant=()):
+    """PolyData of triangles, or an UnstructuredGrid of triangles or tetrahedra, with point arrays.
+
+    With ``cache``: the mesh's arrays and the point arrays named in ``constant`` are encoded once
+    and reused from it (:func:`_write_array`)."""
     n, m, width = len(V), len(C), C.shape[1]
+    mesh = None if cache is None else cache.setdefault("mesh", {})  # apart: a field may be named "Points"
+    fields = None if cache is None else cache.setdefault("fields", {})
     ind = " " * 8
     with atomic_path(path) as tmp:
         try:
@@ -127,16 +143,16 @@ def _write_cells(path, kind, V, C, arrays):
                     fh.write(f'  <UnstructuredGrid>\n    <Piece NumberOfPoints="{n}" NumberOfCells="{m}">\n'
                              f'      <PointData>\n')
                 for key, arr in arrays.items():
-                    _write_array(fh, key, arr, arr.shape[1], ind)
+                    _write_array(fh, key, arr, arr.shape[1], ind, fields if key in constant else None)
                 fh.write("      </PointData>\n      <Points>\n")
-                _write_array(fh, "Points", V, 3, ind)
+                _write_array(fh, "Points", V, 3, ind, mesh)
                 fh.write("      </Points>\n      " + ("<Polys>\n" if kind == "PolyData" else "<Cells>\n"))
-                _write_array(fh, "connectivity", C.astype(np.int64), 1, ind)
-                _write_array(fh, "offsets", width * np.arange(1, m + 1, dtype=np.int64), 1, ind)
+                _write_array(fh, "connectivity", C.astype(np.int64), 1, ind, mesh)
+                _write_array(fh, "offsets", width * np.arange(1, m + 1, dtype=np.int64), 1, ind, mesh)
                 if kind == "PolyData":
                     fh.write("      </Polys>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
                 else:
-                    _write_array(fh, "types", np.full(m, 5 if width == 3 else 10, dtype=np.uint8), 1, ind)
+                    _write_array(fh, "types", np.full(m, 5 if width == 3 else 10, dtype=np.uint8), 1, ind, mesh)
                     fh.write("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n")
         except OSError as exc:
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path") from None
@@ -176,7 +192,7 @@ def write_polydata(path, V, F, point_data=None):
     _write_cells(path, "PolyData", V, F, _point_arrays(point_data, len(V)))
 
 
-def write_unstructured(path, V, C, point_data=None):
+def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=()):
     """Write triangles or tetrahedra with named point fields as a VTK UnstructuredGrid (``.vtu``), atomically.
 
     Encoded as :func:`write_polydata`; VTK, ParaView, pyvista and meshio read it,
@@ -191,6 +207,12 @@ def write_unstructured(path, V, C, point_data=None):
     C : (m, 3) or (m, 4) array_like of int
         Triangles or tetrahedra, validated by the caller.
     point_data : dict of str to (n,) or (n, p) numpy array, optional
+    cache : dict, optional
+        For files written one after another with the same mesh (a time series): an empty dict
+        the first time, the same dict for the next files; the mesh's arrays, and the fields named
+        in ``constant``, are encoded once. The caller guarantees they do not change.
+    constant : collection of str, optional
+        Fields the same in every file written with ``cache``.
 
     Raises
     ------
@@ -202,7 +224,7 @@ def write_unstructured(path, V, C, point_data=None):
     if V.ndim != 2 or V.shape[1] != 3 or C.ndim != 2 or C.shape[1] not in (3, 4):
         raise WriteError(f"{Path(path).name}: points {V.shape} and cells {C.shape}; pass (n, 3) points and "
                          f"(m, 3) triangles or (m, 4) tetrahedra")
-    _write_cells(path, "UnstructuredGrid", V, C, _point_arrays(point_data, len(V)))
+    _write_cells(path, "UnstructuredGrid", V, C, _point_arrays(point_data, len(V)), cache, constant)
 
 
 def write_imagedata(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):

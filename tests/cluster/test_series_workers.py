@@ -135,6 +135,12 @@ def test_bad_worker_options_are_one_line_errors(tmp_path, capsys):
                        "--scheduler", "tcp://127.0.0.1:1")
     assert code == 2 and "not allowed with" in err
     assert not (tmp_path / "a.xdmf").exists()
+    one = tmp_path / "one.csv"
+    one.write_text("vertex,value\n" + "".join(f"{i},1.0\n" for i in IDX))
+    for flag, value in (("--workers", "2"), ("--scheduler", "tcp://127.0.0.1:1")):
+        code, _, err = run(capsys, "reconstruct", mesh, one, "-o", tmp_path / "one.vtu", flag, value)
+        assert code == 2 and err.count("\n") == 1 and f"leave {flag} out" in err
+    assert not (tmp_path / "one.vtu").exists()
     assert isinstance(ManifillError("x"), ValueError)
 
 

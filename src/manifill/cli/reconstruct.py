@@ -55,6 +55,11 @@ def run(args):
                        on_empty=args.on_empty, duplicates=args.duplicates, bounds=bounds_arg(args.bounds),
                        smoothing=smoothing_arg(args.smoothing), **std_opts)
         return run_series(args, out, options, exact)
+    for flag in ("workers", "scheduler"):
+        if getattr(args, flag, None) is not None:
+            raise OptionError(f"--{flag} runs the chunks of a time series (-o OUT.xdmf, .pvd, .h5 or .npy) on Dask "
+                              f"workers; {out.name} is one result: leave --{flag} out, or batch many meshes with "
+                              f"'manifill batch'")
     V, F, S = load(args, keep_points=exact)
     check_names(args, S, out)
     if args.subdivide:

@@ -182,6 +182,9 @@ def _check_flags(command, options, where):
             raise OptionError(f"{where}: write the option {flag} in full ({' or '.join(full) or 'see --help'})")
         if action.dest == "output":
             raise OptionError(f"{where}: {flag} belongs in the output column (key), not among the options")
+        if action.dest in ("workers", "scheduler"):  # a job already runs on a worker, which cannot start others
+            raise OptionError(f"{where}: {flag} is not a job's option (the batch runs each job on a Dask worker); "
+                              f"leave it out")
         if action.dest in seen:
             raise OptionError(f"{where}: {'/'.join(action.option_strings)} is given twice ({seen[action.dest]} and "
                               f"{tok}); give it once (a [defaults] key, not its options, lets a job replace it)")

@@ -2,8 +2,6 @@
 
 import sys
 
-from ..errors import OptionError
-
 __all__ = ["add_parser", "run"]
 
 
@@ -34,9 +32,9 @@ def add_parser(sub):
 def run(args):
     """``manifill batch MANIFEST``: exit 0 when every job is done (or was), 1 when some failed, 2 on bad input."""
     from ..cluster import batch
+    from .options import check_workers
 
-    if args.workers is not None and args.workers < 1:
-        raise OptionError(f"--workers {args.workers}: pass a number of worker processes >= 1")
+    check_workers(args)
 
     def progress(row, finished, total):
         if not args.quiet:

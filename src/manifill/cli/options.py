@@ -9,7 +9,7 @@ from ..surface.reconstruct import METHODS
 from ..linalg.backends import SOLVERS
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
-           "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
+           "check_workers", "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
 
 MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
 
@@ -77,6 +77,15 @@ def series_args(s):
                    help="time series: apply the chunks on an existing Dask cluster (e.g. tcp://host:8786; its "
                         "workers need manifill); without --workers or --scheduler, the environment variable "
                         "DASK_SCHEDULER_ADDRESS, when set, is used")
+
+
+def check_workers(args):
+    """``--workers``, refused in one line naming the flag unless it is a number >= 1 (None when not given)."""
+    from ..errors import OptionError
+
+    if args.workers is not None and args.workers < 1:
+        raise OptionError(f"--workers {args.workers}: pass a number of worker processes >= 1")
+    return args.workers
 
 
 def energy_args(s):

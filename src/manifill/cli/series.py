@@ -11,14 +11,9 @@ here in time order: the same file.
 """
 
 import glob
-import os
-from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["SCHEDULER_ENV", "SERIES_OUTPUTS", "dask_client", "is_series", "run_series"]
-
-#: The environment variable naming a Dask scheduler when neither --workers nor --scheduler is given.
-SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
+__all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
 
 #: Outputs that make ``reconstruct`` write a time series (``.npy`` too, when the samples are one).
 SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5")
@@ -54,10 +49,12 @@ def run_series(args, out, options, exact):
     """Read the series, then :func:`manifill.io.stream.reconstruct_series`; print a summary."""
     from ..errors import OptionError
     from ..io import read_mesh_file
+    from ..io.distributed import dask_client
     from ..io.series import read_series
     from ..io.stream import chunk_size, reconstruct_series
     from ..progress import StepBar
     from .common import print_time
+    from .options import check_workers
 
     for flag in ("render", "html", "subdivide", "clean"):
         if getattr(args, flag, None):
@@ -76,7 +73,8 @@ def run_series(args, out, options, exact):
           f"({series.times[0]:g} .. {series.times[-1]:g}), in {chunks} chunk(s) of {step}")
     bar = StepBar(chunks, enabled=not args.quiet, desc="manifill reconstruct (time steps)")
     try:
-        with dask_client(getattr(args, "workers", None), getattr(args, "scheduler", None)) as client:
+        with dask_client(args.scheduler, check_workers(args), local=False,
+                         what="--workers" if args.workers is not None else "--scheduler") as client:
             done = reconstruct_series(V, F, **where, path=out, times=series.times, name=series.names[0],
                                       chunk=step, progress=bar, check=True if args.check else None, client=client,
                                       **options)
@@ -95,39 +93,3 @@ def run_series(args, out, options, exact):
     print_time(args, done["seconds"])
     print(f"wrote {out} ({T:,} steps)")
     return 0
-
-
-@contextmanager
-def dask_client(workers=None, scheduler=None):
-    """A ``distributed.Client`` for ``--workers N`` (a LocalCluster here) or ``--scheduler ADDRESS`` (else
-    :data:`SCHEDULER_ENV`), closed at the end, also on an error; None without any of them."""
-    from ..errors import OptionError
-
-    if workers is None and scheduler is None:
-        scheduler = os.environ.get(SCHEDULER_ENV) or None
-    if workers is None and scheduler is None:
-        yield None
-        return
-    if workers is not None and (isinstance(workers, bool) or workers < 1):
-        raise OptionError(f"--workers {workers}: pass a number of worker processes >= 1")
-    from ..io.distributed import local_cluster, need_distributed
-
-    flag = "--workers" if workers is not None else "--scheduler"
-    distributed = need_distributed(flag)
-
-    cluster = None
-    try:
-        if workers is not None:
-            cluster = local_cluster(workers, what=flag)
-            client = distributed.Client(cluster)
-        else:
-            try:
-                client = distributed.Client(scheduler, timeout="30s")
-            except OSError as e:
-                raise OptionError(f"--scheduler {scheduler}: no Dask scheduler answers there ({e}); start one "
-                                  f"('dask scheduler') or pass its address") from None
-        with client:
-            yield client
-    finally:
-        if cluster is not None:
-            cluster.close()

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ManifillError, OptionError
-from ..io.distributed import local_cluster
+from ..io.distributed import SCHEDULER_ENV, dask_client
 from ..io.files import KILL_ONCE_ENV, atomic_path
 from ..io.registry import reading_once
 from ..memory import LIMIT_ENV, human
@@ -37,8 +37,6 @@ __all__ = ["batch", "BatchResult", "run_job", "job_memory", "remove_stale", "rea
 
 #: The summary's columns, one row per job in the manifest's order.
 SUMMARY_COLUMNS = ("id", "command", "status", "seconds", "peak_mb", "worker", "output", "hash", "error")
-#: Dask's own variable naming the scheduler of an existing cluster.
-SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
 #: A surface job's memory per vertex, apart from its fields (measured: 891 bytes at 2.6M vertices, one field).
 BYTES_PER_VERTEX = 1000
 #: ... and per vertex and field: the values and the solver's copies of them, four float64.
@@ -164,7 +162,7 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
     count = 0
     if todo:
         distributed = need_distributed()
-        with _client(distributed, scheduler, workers, memory_limit) as client:
+        with dask_client(scheduler, workers, memory_limit, what="a batch on a Dask cluster") as client:
             count = len(client.scheduler_info().get("workers", {}))
             futures = {client.submit(run_job, job, digest, key=f"manifill-job-{job.id}-{digest[:12]}", pure=False,
                                      priority=_size(job)): (job, digest) for job, digest in todo}
@@ -199,34 +197,6 @@ def _summary_path(jobs, summary):
         p = Path(jobs)
         return p.with_name(p.stem + ".summary.csv")
     return Path("batch-summary.csv")
-
-
-@contextlib.contextmanager
-def _client(distributed, scheduler, workers, memory_limit):
-    """A client of the cluster the batch runs on (one it made is closed at the end)."""
-
-    if isinstance(scheduler, distributed.Client):
-        yield scheduler
-        return
-    address = scheduler or os.environ.get(SCHEDULER_ENV) or None
-    if address:
-        if workers is not None or memory_limit is not None:
-            raise OptionError("workers and memory_limit shape a local cluster; leave them out with a scheduler "
-                              "address (that cluster sets its own)")
-        try:
-            client = distributed.Client(address, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            raise OptionError(f"no Dask scheduler answers at {address} ({_one_line(exc)}); start one "
-                              f"('dask scheduler') or leave the address out for a local cluster") from None
-        with client:
-            yield client
-        return
-    if workers is not None and not (isinstance(workers, int) and workers >= 1):
-        raise OptionError(f"workers={workers!r} is not a whole number >= 1; pass one (default: one per core)")
-    n = workers or os.cpu_count() or 1
-    cluster = local_cluster(n, "auto" if memory_limit is None else memory_limit, "a batch on a Dask cluster")
-    with cluster, distributed.Client(cluster) as client:
-        yield client
 
 
 def _row(job, digest, **values):

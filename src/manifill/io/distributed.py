@@ -13,10 +13,16 @@ cancels the rest and raises its error in the caller.
 module level (:func:`need_distributed`).
 """
 
+import contextlib
+import os
 import threading
 import time
 
-__all__ = ["IN_FLIGHT", "EXTRA", "need_distributed", "local_cluster", "ordered_map", "one_at_a_time"]
+__all__ = ["IN_FLIGHT", "EXTRA", "SCHEDULER_ENV", "need_distributed", "local_cluster", "dask_client", "ordered_map",
+           "one_at_a_time"]
+
+#: Dask's own variable naming the scheduler of an existing cluster.
+SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
 
 #: Chunks per worker submitted and not yet handed back (computing, queued or waiting for an earlier one).
 IN_FLIGHT = 2
@@ -71,6 +77,60 @@ def local_cluster(workers, memory_limit="auto", what="this"):
         return distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                         memory_limit=memory_limit, dashboard_address=":0",
                                         silence_logs=logging.ERROR)
+
+
+@contextlib.contextmanager
+def dask_client(scheduler=None, workers=None, memory_limit=None, *, local=True, what="this"):
+    """A ``distributed.Client`` for manifill's work, closed at the end (a cluster it started, too).
+
+    Parameters
+    ----------
+    scheduler : str or distributed.Client, optional
+        An existing cluster: its scheduler's address, or a client of it (used as it is, not
+        closed). Default: :data:`SCHEDULER_ENV` when set and neither ``workers`` nor
+        ``memory_limit`` asks for a local cluster.
+    workers : int, optional
+        Processes of a :func:`local_cluster` (default: one per core).
+    memory_limit : str or int, optional
+        Memory of each local worker (default: ``'auto'``, the machine's shared among them).
+    local : bool, optional
+        Without a scheduler and ``workers``: a local cluster (True) or no client, None (False).
+    what : str, optional
+        What needs the cluster, for the error naming the ``[batch]`` extra.
+
+    Raises
+    ------
+    OptionError
+        dask/distributed missing; a scheduler address with ``workers`` or ``memory_limit``; no
+        scheduler answering at the address; ``workers`` not a whole number >= 1.
+    """
+    from ..errors import OptionError
+
+    if scheduler is not None and not isinstance(scheduler, str):
+        yield scheduler
+        return
+    address = scheduler or (os.environ.get(SCHEDULER_ENV) if workers is None and memory_limit is None else None)
+    if not address and workers is None and not local:
+        yield None
+        return
+    distributed = need_distributed(what)
+    if address:
+        if workers is not None or memory_limit is not None:
+            raise OptionError("workers and memory_limit shape a local cluster; leave them out with a scheduler "
+                              "address (that cluster sets its own)")
+        try:
+            client = distributed.Client(address, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise OptionError(f"no Dask scheduler answers at {address} ({' '.join(str(exc).split())}); start one "
+                              f"('dask scheduler') or leave the address out") from None
+        with client:
+            yield client
+        return
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise OptionError(f"workers={workers!r} is not a whole number >= 1; pass one (default: one per core)")
+    cluster = local_cluster(workers or os.cpu_count() or 1, "auto" if memory_limit is None else memory_limit, what)
+    with cluster, distributed.Client(cluster) as client:
+        yield client
 
 
 def one_at_a_time(fn, *args):

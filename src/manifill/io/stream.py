@@ -123,24 +123,27 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     starts = range(0, T, step)
     seconds = {"prepare": time.perf_counter() - t0, "reconstruct": 0.0, "write": 0.0}
     W = dense_map(rec, T, options.get("check"), seconds)
-    if W is not None:  # k solves once, then one product per chunk: here, whatever the client
-        last = apply_chunk(rec, vals[:, T - 1:], True)
+
+    def span(s):
+        return f"steps {s}-{min(s + step, T) - 1}"
+
+    if W is not None or client is None:  # here: through the map (whatever the client), or applied chunk by chunk
+        if W is not None:
+            last = apply_chunk(rec, vals[:, T - 1:], True)  # the report and the masks, from one solve
+
+            def one(block, first):
+                t = time.perf_counter()
+                rec.check_values(block)
+                return W @ block, last[1], last[2] if first else None, time.perf_counter() - t
+        else:
+            def one(block, first):
+                return apply_chunk(rec, block, first)
 
         def blocks():
             for s in starts:
                 if progress is not None:
-                    progress(f"steps {s}-{min(s + step, T) - 1}")
-                t = time.perf_counter()
-                rec.check_values(vals[:, s:s + step])
-                values = W @ vals[:, s:s + step]
-                yield values, last[1], last[2] if s == 0 else None, time.perf_counter() - t
-        results = blocks()
-    elif client is None:
-        def blocks():
-            for s in starts:
-                if progress is not None:
-                    progress(f"steps {s}-{min(s + step, T) - 1}")
-                yield apply_chunk(rec, vals[:, s:s + step], s == 0)
+                    progress(span(s))
+                yield one(vals[:, s:s + step], s == 0)
         results = blocks()
     else:
         from .distributed import ordered_map
@@ -154,8 +157,8 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
             values, report, static, spent = next(results)
             seconds["reconstruct"] += spent
             t = time.perf_counter()
-            if client is not None and progress is not None:
-                progress(f"steps {s}-{min(s + step, T) - 1}")
+            if W is None and client is not None and progress is not None:  # as each chunk comes back
+                progress(span(s))
             if writer is None:  # the masks do not change in time: given with the first chunk
                 writer = SeriesWriter(path, rec.surface.V, rec.surface.F, names=name, steps=T,
                                       static=None if str(path).lower().endswith(".npy") else static)

@@ -55,7 +55,7 @@ def main(argv=None):
         tools.append(("libigl harmonic(k)", lambda: (None, igl.harmonic(V, F64, b64, bc[:, None], args.k)[:, 0])))
     for name in args.solvers.split(","):
         def run(name=name):
-            s = PolyharmonicSolver(V, F, b, k=args.k, solver=name)
+            s = PolyharmonicSolver(V, F, b, k=args.k, solver=name, mass="voronoi")  # libigl's mass
             return s, s.solve(bc)
 
         tools.append((f"manifill solver={name}", run))

@@ -32,10 +32,12 @@ mesh and few steps, in seconds (for the tests).
 """
 
 import argparse
+import importlib.metadata as md
 import json
 import os
 import platform
 import re
+import resource
 import shutil
 import subprocess
 import sys
@@ -43,7 +45,12 @@ import tempfile
 import time
 from pathlib import Path
 
+import meshio
 import numpy as np
+
+import manifill
+from manifill.io import read_mesh_file, write_mesh
+from manifill.mesh.shapes import icosphere
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "bench" / "results" / "eeg_series.json"
@@ -74,8 +81,6 @@ def scalp(level, cut=None):
     With ``cut`` (default :data:`CUT`): only the faces whose corners all lie above ``z = cut c``, the
     vertices renumbered (``level 6``, ``cut -0.56``: 31,909 vertices, a scalp open at the neck).
     """
-    from manifill.mesh.shapes import icosphere
-
     V, F = icosphere(level)
     cut = CUT if cut is None else cut
     if cut is not None:
@@ -120,8 +125,6 @@ def eeg(V, idx, steps, seed=0):
 
 def write_inputs(folder, level, steps, csv=False):
     """The mesh (``scalp.vtp``) and the samples (``eeg.npz``, and ``eeg.csv`` if asked) in ``folder``."""
-    from manifill.io import write_mesh
-
     V, F = scalp(level)
     idx = electrodes(V)
     vals, times = eeg(V, idx, steps)
@@ -174,8 +177,6 @@ def run_cli(mesh, samples, out, method, chunk=None):
 
 def rusage(cmd):
     """Run ``cmd``; print its peak RSS (``ru_maxrss`` of this process's children, MB) last on stderr."""
-    import resource
-
     rc = subprocess.run(cmd).returncode
     print(f"peak_mb {resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0}", file=sys.stderr)
     return rc
@@ -187,11 +188,6 @@ def _columns(T):
 
 def check_meshio(cfg):
     """Steps and values of the XDMF through meshio, against ``manifill.reconstruct`` on a few columns."""
-    import meshio
-
-    import manifill
-    from manifill.io import read_mesh_file
-
     m = read_mesh_file(cfg["mesh"])
     d = np.load(cfg["samples"])
     cols = _columns(d["vals"].shape[1])
@@ -212,9 +208,6 @@ def check_meshio(cfg):
 def check_pyvista(cfg):
     """The XDMF through ``pyvista.XdmfReader``: its number of times and the last step against the reference."""
     import pyvista as pv
-
-    import manifill
-    from manifill.io import read_mesh_file
 
     m = read_mesh_file(cfg["mesh"])
     d = np.load(cfg["samples"])
@@ -305,8 +298,6 @@ def table(rows):
 
 def save(out, rows, argv, started):
     """The JSON of the rows so far: command, machine, load, versions, rows and their markdown."""
-    import importlib.metadata as md
-
     versions = {"python": platform.python_version()}
     for name in ("numpy", "scipy", "h5py", "meshio", "pyvista", "manifill", "pypardiso"):
         try:

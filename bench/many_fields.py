@@ -30,8 +30,12 @@ A child alone: ``python -m bench.many_fields --child '{"level": 7, "k": 100, "me
 """
 
 import argparse
+import cProfile
+import importlib.metadata as md
 import json
 import platform
+import pstats
+import resource
 import subprocess
 import sys
 import tempfile
@@ -39,6 +43,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+import manifill
+from manifill.mesh.shapes import icosphere
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "bench" / "results" / "many_fields.json"
@@ -53,8 +60,6 @@ def series(P, p):
 
 
 def _rss_mb():
-    import resource
-
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kilobytes on Linux
 
 
@@ -75,16 +80,12 @@ class _Stages:
     def run(self, name, fn):
         prof = None
         if name == self.profile:
-            import cProfile
-
             prof = cProfile.Profile()
             prof.enable()
         t = time.perf_counter()
         out = fn()
         self.seconds[name] = time.perf_counter() - t
         if prof is not None:
-            import pstats
-
             prof.disable()
             print(f"--- cProfile of stage {name!r} ---", file=sys.stderr)
             pstats.Stats(prof, stream=sys.stderr).sort_stats("cumulative").print_stats(35)
@@ -95,9 +96,6 @@ class _Stages:
 
 def child(cfg):
     """One configuration in this process: a JSON-able dict."""
-    import manifill
-    from manifill.mesh.shapes import icosphere
-
     try:
         import igl
     except ImportError:
@@ -280,8 +278,6 @@ def main(argv=None):
 
 def save(out, rows, argv, started):
     """The JSON of the rows so far: command, machine, versions, rows and their markdown."""
-    import importlib.metadata as md
-
     versions = {"python": platform.python_version()}
     for name in ("numpy", "scipy", "libigl", "manifill", "pypardiso"):
         try:

@@ -59,7 +59,7 @@ def steps_alone(V, F, idx, vals, repeat):
     s = Surface.from_mesh(V, F)
     sec = {}
     sec["dijkstra+voronoi"], _ = _best(lambda: voronoi_pairs(s.G, idx), repeat)
-    sec["partition"], part = _best(lambda: partition(V, F, idx, s.G), repeat)
+    sec["partition"], part = _best(lambda: partition(s, idx), repeat)
     sec["paths+patches"] = sec["partition"] - sec["dijkstra+voronoi"]
     starts = part.steepest(idx, vals)
     sec["check"], _ = _best(lambda: [check_gradual(s.G_hops, idx, vals[:, j], distance="hops", start=starts[j])

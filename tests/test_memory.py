@@ -252,7 +252,7 @@ def within(estimate, actual, factor=3.0):
 def test_voxelize_memory_matches_the_traced_peak(k, res):
     V, F = icosphere(k)
     V = V * [1.0, 0.6, 0.4]
-    _, peak = peak_of(voxelize, V, F, res)
+    _, peak = peak_of(voxelize, V, F, resolution=res)
     assert within(voxelize_memory(V, F, res), peak)
 
 
@@ -359,7 +359,7 @@ def test_huge_resolution_is_refused_with_the_real_memory():
     msg = refused_quietly(reconstruct_volume, V, F, idx, V[idx, 0], resolution=3000)
     assert "resolution 3000 (grid 3002 x 3002 x 3002, 27,054,036,008 voxels)" in msg
     assert "needs about 4.7 TB" in msg and "of memory is available" in msg and "(CLI --resolution)" in msg
-    msg = refused_quietly(voxelize, V, F, 3000)
+    msg = refused_quietly(voxelize, V, F, resolution=3000)
     assert msg.startswith("voxelising at resolution 3000") and "needs about 487.0 GB" in msg
 
 
@@ -494,7 +494,7 @@ def test_voxel_fill_refused_before_its_components(monkeypatch, little_memory):
 @pytest.mark.parametrize("bad", [12.5, float("inf"), float("nan"), True, "12", None, 1, 0])
 def test_bad_resolution_is_an_option_error(bad):
     V, F = icosphere(1)
-    for f in (lambda: voxelize(V, F, bad), lambda: voxelize_memory(V, F, bad),
+    for f in (lambda: voxelize(V, F, resolution=bad), lambda: voxelize_memory(V, F, bad),
               lambda: reconstruct_volume(V, F, [0], [1.0], resolution=bad)):
         with pytest.raises(OptionError) as info:
             f()
@@ -506,9 +506,9 @@ def test_absurd_resolution_is_refused_without_arithmetic_overflow():
     V, F = icosphere(1)
     for res in (10**13, 10**400):
         with pytest.raises(ResourceError) as info:
-            voxelize(V, F, res)
+            voxelize(V, F, resolution=res)
         assert "more than any memory holds" in one_line(info)
-    assert voxelize(V, F, 12.0)[0].shape == voxelize(V, F, 12)[0].shape
+    assert voxelize(V, F, resolution=12.0)[0].shape == voxelize(V, F, resolution=12)[0].shape
 
 
 def test_reconstruct_volume_memory_options():

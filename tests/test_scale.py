@@ -376,8 +376,8 @@ def sorted_rows(F):
 @pytest.mark.parametrize("s", SCALES)
 def test_voxelize_is_scale_free(s):
     """The same voxels at every scale; the grid's spacing and origin scale by s, the memory estimate not at all."""
-    mask0, h0, o0 = solid_reference("voxelize", lambda: voxelize(V0, F0, 24))
-    mask, h, origin = voxelize(V0 * s, F0, 24)
+    mask0, h0, o0 = solid_reference("voxelize", lambda: voxelize(V0, F0, resolution=24))
+    mask, h, origin = voxelize(V0 * s, F0, resolution=24)
     assert np.array_equal(mask, mask0) and 2000 < mask.sum() < mask.size / 2
     np.testing.assert_allclose(h, h0 * s, rtol=1e-14)
     np.testing.assert_allclose(origin, o0 * s, rtol=1e-14)
@@ -391,8 +391,8 @@ def test_voxelize_far_from_the_origin():
     shift = np.array([1e9, -2e9, 3e9])
     W = V0 + shift
     back = W - shift  # exact
-    mask, h, origin = voxelize(W, F0, 24)
-    mask0, h0, o0 = voxelize(back, F0, 24)
+    mask, h, origin = voxelize(W, F0, resolution=24)
+    mask0, h0, o0 = voxelize(back, F0, resolution=24)
     assert np.array_equal(mask, mask0) and mask.any()
     assert np.array_equal(h, h0)
     np.testing.assert_allclose(origin - shift, o0, rtol=0, atol=1e-6)

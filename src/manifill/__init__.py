@@ -18,11 +18,10 @@ the subpackages are the layers (``docs/ARCHITECTURE.md`` draws them):
 - :mod:`manifill.cluster` - batches of jobs (command lines) on a Dask cluster
 - base modules: :mod:`manifill.errors`, :mod:`manifill.tolerances`,
   :mod:`manifill.validate`, :mod:`manifill.results`, :mod:`manifill.memory`,
-  :mod:`manifill.progress`, :mod:`manifill.report`
+  :mod:`manifill.progress`, :mod:`manifill.report`, :mod:`manifill.version`
 """
 
-__version__ = "0.1.0"
-
+from .version import __version__  # noqa: F401 (the one source of the version)
 from .errors import (ManifillError, MeshError, OptionError, ReadError, ResourceError, SampleError, SolveError,
                      WriteError)
 from .io import (read_mesh, read_mesh_file, read_samples, read_tets, read_vti, write_mesh, write_tets, write_values,
@@ -50,6 +49,8 @@ from .surface.polyharmonic import PolyharmonicSolver, biharmonic
 from .surface.partition import Partition, partition
 from .surface.reconstruct import Reconstruction, reconstruct, reconstruct_surface
 from .surface.reconstructor import Reconstructor
+from .surface.options import Options
+from .surface.methods.registry import method_of
 from .io.stream import reconstruct_series
 from .cluster import BatchResult, batch
 from .surface.surface import Surface
@@ -59,7 +60,8 @@ __all__ = [
     "ManifillError", "MeshError", "SampleError", "OptionError", "SolveError", "ReadError", "WriteError",
     "ResourceError",
     # surfaces: the pipeline (Steps 1-6) and its steps
-    "reconstruct", "Reconstruction", "Reconstructor", "reconstruct_series", "batch", "BatchResult",
+    "reconstruct", "Reconstruction", "Reconstructor", "Options", "method_of", "reconstruct_series", "batch",
+    "BatchResult",
     "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
     "CrossValidation", "locate_points", "SurfacePoints", "GPOptions", "gp_tets", "gp_voxels",

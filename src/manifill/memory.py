@@ -12,6 +12,11 @@ with the estimate and a way out, before anything is allocated.
 import math
 import os
 
+try:
+    import resource
+except ImportError:  # not on this platform
+    resource = None
+
 from .errors import ResourceError
 
 __all__ = ["LIMIT_ENV", "available_bytes", "check_fits", "human", "lu_memory"]
@@ -160,9 +165,7 @@ def _cgroup_room(root):
 
 def _rlimit_room(root, getrlimit):
     """Room under the soft address-space and data limits (RLIMIT_AS, RLIMIT_DATA), or ``None`` if unlimited."""
-    try:
-        import resource
-    except ImportError:  # not on this platform
+    if resource is None:  # not on this platform
         return None
     getrlimit = resource.getrlimit if getrlimit is None else getrlimit
     rooms = []

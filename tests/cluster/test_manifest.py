@@ -287,7 +287,7 @@ def test_the_hash_changes_with_an_option_a_byte_or_the_version_and_nothing_else(
     assert job_hash(job) != h3
     write(tmp_path / "series" / "readme.txt", "not a sample")
     h4 = job_hash(job)
-    monkeypatch.setattr(manifill, "__version__", "999.0")
+    monkeypatch.setattr(manifill.version, "__version__", "999.0")
     assert job_hash(job) != h4
 
 

@@ -43,8 +43,8 @@ def client():
 
 
 @pytest.mark.parametrize("options", [dict(method="harmonic"), dict(method="gvf-harmonic"),
-                                     dict(method="biharmonic", bounds=(-1.5, 1.5)), dict(method="gp", gp={"range": 1.0}),
-                                     dict(method="biharmonic", smoothing=1e-3)])
+                                     dict(method="biharmonic", bounds=(-1.5, 1.5)),
+                                     dict(method="gp", gp={"range": 1.0}), dict(method="biharmonic", smoothing=1e-3)])
 def test_a_pickled_reconstructor_gives_the_same_values(options):
     vals = values(6)
     rec = manifill.Reconstructor(V, F, IDX, fields=6, **options)
@@ -64,7 +64,7 @@ def test_a_series_over_two_workers_is_the_serial_series(tmp_path, client, ext):
     seen = []
     b = reconstruct_series(V, F, IDX, vals, there, times=times, chunk=4, method="biharmonic", client=client,
                            progress=seen.append)
-    assert a["chunks"] == b["chunks"] == 6 and b["seconds"]["send"] > 0
+    assert a.chunks == b.chunks == 6 and b.seconds["send"] > 0
     assert seen == [f"steps {s}-{min(s + 4, 23) - 1}" for s in range(0, 23, 4)]  # written in time order
     t1, x1 = read_series_values(here)
     t2, x2 = read_series_values(there)

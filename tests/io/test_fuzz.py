@@ -633,7 +633,7 @@ def _volume_samples():
     """Positions (and values) on the digital surface of the voxel mask, as a CSV seed."""
     from manifill.solid.boundary import digital_surface
 
-    _, P, _, _ = digital_surface(_mask(), [1.0, 1.0, 1.0], [0.0, 0.0, 0.0], 6)
+    _, P, _, _ = digital_surface(_mask(), spacing=[1.0, 1.0, 1.0], origin=[0.0, 0.0, 0.0], connectivity=6)
     rows = P[[0, len(P) // 3, len(P) // 2, len(P) - 1]]
     text = "x,y,z,t\n" + "".join(f"{a!r},{b!r},{c!r},{a + 2 * b!r}\n" for a, b, c in rows.tolist())
     return Seed("volume_csv", "s.csv", text.encode(), "cli", text=True)

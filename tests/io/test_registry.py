@@ -393,7 +393,7 @@ def test_write_values_csv_round_trip(tmp_path):
     rng = np.random.default_rng(2)
     X = rng.normal(size=(n, 2)) * np.array([1e-7, 1e9])
     path = tmp_path / "vals.csv"
-    write_values(path, X, ["temp", "pressure"])
+    write_values(path, X, names=["temp", "pressure"])
     lines = path.read_text().splitlines()
     assert lines[0] == "vertex,temp,pressure" and len(lines) == n + 1
     table = np.loadtxt(path, delimiter=",", skiprows=1)
@@ -413,7 +413,7 @@ def test_write_values_default_names(tmp_path):
     assert (tmp_path / "one.csv").read_text().splitlines()[0] == "vertex,value"
     assert (tmp_path / "three.csv").read_text().splitlines()[0] == "vertex,value,value2,value3"
     with pytest.raises(SampleError, match="field names"):
-        write_values(tmp_path / "bad.csv", np.zeros((2, 3)), ["a", "b"])
+        write_values(tmp_path / "bad.csv", np.zeros((2, 3)), names=["a", "b"])
     assert not (tmp_path / "bad.csv").exists()
 
 
@@ -421,7 +421,7 @@ def test_write_values_default_names(tmp_path):
 def test_write_values_npy_round_trip(tmp_path, shape):
     X = np.random.default_rng(3).normal(size=shape)
     path = tmp_path / "vals.npy"
-    write_values(path, X, None)
+    write_values(path, X, names=None)
     got = np.load(path)
     assert got.dtype == np.float64
     # one column is stored as a vector

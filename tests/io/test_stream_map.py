@@ -38,8 +38,8 @@ def test_the_map_gives_the_file_solving_every_step_gives(tmp_path, monkeypatch, 
     vals = values()
     a = stream.reconstruct_series(V, F, IDX, vals, tmp_path / "map.h5", chunk=10, **options)
     b = solve_every_step(monkeypatch, V, F, IDX, vals, tmp_path / "solve.h5", chunk=10, **options)
-    assert "map" in a["seconds"] and "map" not in b["seconds"]
-    assert a["chunks"] == b["chunks"] == 5
+    assert a.linear_map and not b.linear_map and "map" in a.seconds and "map" not in b.seconds
+    assert a.chunks == b.chunks == 5
     ta, xa = read_series_values(tmp_path / "map.h5")
     tb, xb = read_series_values(tmp_path / "solve.h5")
     np.testing.assert_array_equal(ta, tb)
@@ -53,7 +53,7 @@ def test_the_map_gives_the_file_solving_every_step_gives(tmp_path, monkeypatch, 
 @pytest.mark.parametrize("options", [dict(), dict(method="harmonic", bounds=(-2, 2)), dict(method="gvf")])
 def test_a_nonlinear_series_solves_every_step(tmp_path, options):
     s = stream.reconstruct_series(V, F, IDX, values(), tmp_path / "x.npy", **options)
-    assert "map" not in s["seconds"]
+    assert "map" not in s.seconds
 
 
 def test_few_steps_step_one_for_all_or_a_map_too_large_solve_every_step(tmp_path, monkeypatch):
@@ -80,7 +80,7 @@ def test_duplicate_samples_through_the_map_are_averaged_or_refused_as_apply_does
     vals[-1] = vals[0] + 0.5  # and two different values there
     a = stream.reconstruct_series(V, F, rows, vals, tmp_path / "a.npy", method="harmonic", duplicates="mean")
     solve_every_step(monkeypatch, V, F, rows, vals, tmp_path / "b.npy", method="harmonic", duplicates="mean")
-    assert "map" in a["seconds"]
+    assert "map" in a.seconds
     xa, xb = np.load(tmp_path / "a.npy"), np.load(tmp_path / "b.npy")
     assert np.abs(xa - xb).max() <= 1e-11 * np.abs(vals).max()
     np.testing.assert_allclose(xa[IDX[0]], vals[0] + 0.25, rtol=1e-13)
@@ -90,3 +90,19 @@ def test_duplicate_samples_through_the_map_are_averaged_or_refused_as_apply_does
     with pytest.raises(SampleError):
         stream.reconstruct_series(V, F, rows, same, tmp_path / "c.npy", method="harmonic", chunk=10)
     assert not (tmp_path / "c.npy").exists()
+
+
+def test_the_result_says_what_was_written(tmp_path):
+    # 7 steps in chunks of 3: ceil(7 / 3) = 3 chunks; too few steps per sample for the map (20 samples)
+    r = manifill.reconstruct_series(V, F, IDX, values(T=7), tmp_path / "x.npy", chunk=3, method="harmonic")
+    assert isinstance(r, stream.SeriesResult) and r.path == tmp_path / "x.npy"
+    assert (r.steps, r.chunk, r.chunks) == (7, 3, 3) and np.load(r.path).shape == (N, 7)
+    assert not r.linear_map and r.report["method"] == "harmonic"
+    assert {"prepare", "reconstruct", "write", "total"} <= set(r.seconds)
+    assert r.seconds["total"] >= r.seconds["prepare"] + r.seconds["write"]
+    # the dict it was: the same keys for one release, with a warning that names the attribute
+    for key in ("steps", "chunk", "chunks", "seconds", "report"):
+        with pytest.warns(DeprecationWarning, match=rf"\.{key}$"):
+            assert r[key] is getattr(r, key)
+    with pytest.raises(KeyError):
+        r["path"]

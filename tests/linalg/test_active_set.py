@@ -23,7 +23,7 @@ def mesh(kind):
 
 def biharmonic(V, F):
     """``L M^-1 L`` with the cotangent stiffness and the lumped mass."""
-    L, M = laplacian(V, F), mass_matrix(V, F)
+    L, M = laplacian(V, F), mass_matrix(V, F, mass="barycentric")
     return sp.csr_array(L @ sp.diags(1.0 / M.diagonal()) @ L)
 
 
@@ -297,7 +297,7 @@ def sphere_step(level, k, seed):
 
     V, F = icosphere(level)
     V = V / np.abs(V).max()
-    A = polyharmonic_energy(laplacian(V, F), mass_matrix(V, F, kind="voronoi"), 2)
+    A = polyharmonic_energy(laplacian(V, F), mass_matrix(V, F, mass="voronoi"), 2)
     f = ((V[:, 0] + 2 * V[:, 1] + 2 * V[:, 2]) / 3 > 0.2).astype(float)
     idx = np.sort(np.random.default_rng([seed, k]).choice(V.shape[0], k, replace=False))
     return sp.csr_array(A), idx, f[idx]

@@ -95,7 +95,7 @@ def test_pardiso_factors_are_freed_with_their_solver(monkeypatch):
 
     monkeypatch.setenv(DIRECT_ENV, "pardiso")
     V, F = icosphere(5)
-    Q = polyharmonic_energy(sp.csr_matrix(laplacian(V, F)), mass_matrix(V, F, kind="voronoi"), 2).tocsr()[5:, 5:]
+    Q = polyharmonic_energy(sp.csr_matrix(laplacian(V, F)), mass_matrix(V, F, mass="voronoi"), 2).tocsr()[5:, 5:]
     first = _resident_bytes()
     DirectSolver(Q).solve(np.ones(Q.shape[0]))
     one = max(_resident_bytes() - first, 1)

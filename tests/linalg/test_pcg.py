@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from manifill.linalg.pcg import PCGResult, dot, nrm2, pcg
+from manifill.linalg.pcg import Kernels, PCGResult, dot, nrm2, pcg
 
 
 def spd(n=60, seed=0):
@@ -86,3 +86,45 @@ def test_norm_survives_overflow_and_underflow():
         assert nrm2(x) == pytest.approx(5.0 * s, rel=1e-15)
     assert dot(np.ones(3), np.arange(3.0)) == 3.0
     assert nrm2(np.zeros(4)) == 0.0
+
+
+def test_cg_in_another_inner_product():
+    # A = M^-1 K is not symmetric, but it is self-adjoint and positive in <u, v>_M = u' M v: CG in that inner
+    # product solves A x = M^-1 b, i.e. K x = b (with the Euclidean one, CG breaks down on this A)
+    K, b = spd(40, seed=6)
+    m = np.random.default_rng(7).uniform(0.1, 10.0, 40)
+    x = np.zeros_like(b)
+    res = pcg(lambda p: (K @ p) / m, b / m, x, rtol=1e-12, maxiter=200, norm0=nrm2(b / m),
+              kernels=Kernels(inner=lambda u, v: float(u @ (m * v))))
+    assert res.converged
+    np.testing.assert_allclose(x, spsolve(sp.csc_matrix(K), b), rtol=0, atol=1e-8)
+
+
+def test_own_vector_updates_give_the_same_iterates():
+    # the updates done in two halves (as the voxel multigrid does on threads) are the same arithmetic
+    A, b = spd(80, seed=8)
+    calls = {"update": 0, "direction": 0}
+    x = np.zeros_like(b)
+    r = b.copy()
+    halves = (slice(0, 40), slice(40, 80))
+
+    def update(alpha, p, Ap):
+        calls["update"] += 1
+        for h in halves:
+            x[h] += alpha * p[h]
+            r[h] -= alpha * Ap[h]
+        return nrm2(r)
+
+    def direction(beta, p, z):
+        calls["direction"] += 1
+        for h in halves:
+            p[h] = z[h] + beta * p[h]
+
+    mine = pcg(lambda p: A @ p, r, x, precondition=jacobi(A), rtol=1e-12, maxiter=500, norm0=nrm2(b),
+               kernels=Kernels(update=update, direction=direction))
+    y = np.zeros_like(b)
+    plain = pcg(lambda p: A @ p, b.copy(), y, precondition=jacobi(A), rtol=1e-12, maxiter=500, norm0=nrm2(b))
+    assert mine.converged and calls == {"update": mine.iterations, "direction": mine.iterations - 1}
+    assert mine.iterations == plain.iterations
+    np.testing.assert_allclose(mine.history, plain.history, rtol=1e-9)
+    np.testing.assert_allclose(x, y, rtol=0, atol=1e-12)

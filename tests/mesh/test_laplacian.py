@@ -340,7 +340,7 @@ def test_unreferenced_vertex_gets_an_empty_row(weights):
 # ---------------------------------------------------------------------------
 
 MASS = ("barycentric", "voronoi")
-mass_params = pytest.mark.parametrize("kind", MASS)
+mass_params = pytest.mark.parametrize("mass", MASS)
 
 
 def jitter(V, F, seed=3, amount=0.05):
@@ -356,29 +356,29 @@ def test_mass_single_right_triangle(single_triangle):
     # area 1/2: a third per corner; Voronoi: the right angle is not obtuse, the circumcentre is the
     # hypotenuse's midpoint, so the right-angled corner gets 1/4 and the two others 1/8 each
     V, F = single_triangle
-    np.testing.assert_allclose(mass_matrix(V, F).diagonal(), [1 / 6] * 3, rtol=1e-15)
-    np.testing.assert_allclose(mass_matrix(V, F, kind="voronoi").diagonal(), [1 / 4, 1 / 8, 1 / 8], rtol=1e-15)
+    np.testing.assert_allclose(mass_matrix(V, F, mass="barycentric").diagonal(), [1 / 6] * 3, rtol=1e-15)
+    np.testing.assert_allclose(mass_matrix(V, F, mass="voronoi").diagonal(), [1 / 4, 1 / 8, 1 / 8], rtol=1e-15)
 
 
 def test_mass_voronoi_equilateral_and_obtuse():
     # equilateral: the Voronoi parts are the thirds; obtuse: half to the obtuse corner, quarters to the others
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0.5, np.sqrt(3) / 2, 0]])
-    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], kind="voronoi").diagonal(), [np.sqrt(3) / 12] * 3,
+    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], mass="voronoi").diagonal(), [np.sqrt(3) / 12] * 3,
                                rtol=1e-14)
     V = np.array([[0.0, 0, 0], [4, 0, 0], [2, 0.5, 0]])  # obtuse at vertex 2, area 1
-    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], kind="voronoi").diagonal(), [0.25, 0.25, 0.5],
+    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], mass="voronoi").diagonal(), [0.25, 0.25, 0.5],
                                rtol=1e-15)
-    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]]).diagonal(), [1 / 3] * 3, rtol=1e-15)
+    np.testing.assert_allclose(mass_matrix(V, [[0, 1, 2]], mass="barycentric").diagonal(), [1 / 3] * 3, rtol=1e-15)
 
 
-@pytest.mark.parametrize("kind, igl_kind", [("barycentric", "MASSMATRIX_TYPE_BARYCENTRIC"),
+@pytest.mark.parametrize("mass, igl_kind", [("barycentric", "MASSMATRIX_TYPE_BARYCENTRIC"),
                                             ("voronoi", "MASSMATRIX_TYPE_VORONOI")])
 @pytest.mark.parametrize("mesh", [irregular, obtuse, lambda: jitter(*icosphere(2)), lambda: jitter(*grid(6))],
                          ids=["irregular", "obtuse", "icosphere", "grid"])
-def test_mass_equals_igl_massmatrix(kind, igl_kind, mesh):
+def test_mass_equals_igl_massmatrix(mass, igl_kind, mesh):
     igl = pytest.importorskip("igl")
     V, F = mesh()
-    M = mass_matrix(V, F, kind=kind)
+    M = mass_matrix(V, F, mass=mass)
     R = sp.csr_array(igl.massmatrix(V, F.astype(np.int64), getattr(igl, igl_kind)))
     assert M.shape == R.shape
     np.testing.assert_allclose(M.toarray(), R.toarray(), rtol=0, atol=1e-12 * R.diagonal().max())
@@ -387,9 +387,9 @@ def test_mass_equals_igl_massmatrix(kind, igl_kind, mesh):
 
 @mass_params
 @mesh_params
-def test_mass_is_diagonal_nonnegative_and_sums_to_the_area(kind, mesh):
+def test_mass_is_diagonal_nonnegative_and_sums_to_the_area(mass, mesh):
     V, F = MESHES[mesh]()
-    M = mass_matrix(V, F, kind=kind)
+    M = mass_matrix(V, F, mass=mass)
     assert M.nnz == len(V) and (M.indices == np.arange(len(V))).all()
     assert (M.diagonal() >= 0).all()
     np.testing.assert_allclose(M.sum(), naive_areas(V, F).sum(), rtol=1e-13)
@@ -398,32 +398,32 @@ def test_mass_is_diagonal_nonnegative_and_sums_to_the_area(kind, mesh):
 
 @mass_params
 @pytest.mark.parametrize("s", [1e-150, 1e-6, 3.0, 1e6, 1e150])
-def test_mass_scales_as_s_squared_at_any_scale(kind, s):
+def test_mass_scales_as_s_squared_at_any_scale(mass, s):
     V, F = jitter(*icosphere(2))
-    M = mass_matrix(V, F, kind=kind).diagonal()
-    Ms = mass_matrix(V * s, F, kind=kind).diagonal()
+    M = mass_matrix(V, F, mass=mass).diagonal()
+    Ms = mass_matrix(V * s, F, mass=mass).diagonal()
     np.testing.assert_allclose(Ms / s / s, M, rtol=1e-12)
 
 
 @mass_params
-def test_mass_invariant_under_translation_and_relabelling(kind):
+def test_mass_invariant_under_translation_and_relabelling(mass):
     V, F = irregular()
-    M = mass_matrix(V, F, kind=kind).diagonal()
-    np.testing.assert_allclose(mass_matrix(V + np.array([3.0, -2.0, 5.0]), F, kind=kind).diagonal(), M, rtol=1e-12)
+    M = mass_matrix(V, F, mass=mass).diagonal()
+    np.testing.assert_allclose(mass_matrix(V + np.array([3.0, -2.0, 5.0]), F, mass=mass).diagonal(), M, rtol=1e-12)
     perm = np.random.default_rng(5).permutation(len(V))
     inv = np.argsort(perm)  # new vertex inv[i] is old vertex i
-    Mp = mass_matrix(V[perm], inv[F], kind=kind).diagonal()
+    Mp = mass_matrix(V[perm], inv[F], mass=mass).diagonal()
     np.testing.assert_allclose(Mp[inv], M, rtol=1e-15)
 
 
 def test_mass_unreferenced_vertex_and_degenerate_face_weigh_nothing():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [9, 9, 9]])
     F = np.array([[0, 1, 2], [0, 1, 3]])  # face 1 is collinear: zero area; vertex 4 is used by no face
-    for kind in MASS:
-        d = mass_matrix(V, F, kind=kind).diagonal()
+    for mass in MASS:
+        d = mass_matrix(V, F, mass=mass).diagonal()
         assert d[3] == 0 and d[4] == 0
         np.testing.assert_allclose(d.sum(), 0.5, rtol=1e-15)
-        np.testing.assert_allclose(vertex_areas(V, F, kind=kind), d, rtol=0)
+        np.testing.assert_allclose(vertex_areas(V, F, kind=mass), d, rtol=0)
 
 
 def test_mass_with_cotan_stiffness_integrates_the_dirichlet_energy():
@@ -432,18 +432,41 @@ def test_mass_with_cotan_stiffness_integrates_the_dirichlet_energy():
     a = np.array([0.3, -1.2, 0.0])
     f = V @ a
     L = laplacian(V, F, weights="cotan")
-    M = mass_matrix(V, F)
+    M = mass_matrix(V, F, mass="barycentric")
     np.testing.assert_allclose(f @ (L @ f), (a @ a) * M.sum(), rtol=1e-12)
 
 
 def test_mass_rejects_bad_input(single_triangle):
     V, F = single_triangle
-    with pytest.raises(OptionError, match="kind"):
-        mass_matrix(V, F, kind="full")
+    with pytest.raises(OptionError, match="mass"):
+        mass_matrix(V, F, mass="full")
     with pytest.raises(MeshError, match="outside"):
         mass_matrix(V, [[0, 1, 3]])
     with pytest.raises(MeshError, match="NaN"):
         mass_matrix(np.where(V == 1, np.nan, V), F)
+
+
+def test_mass_old_keyword_kind_still_works_for_one_release(single_triangle):
+    V, F = single_triangle
+    with pytest.warns(DeprecationWarning, match="mass="):
+        old = mass_matrix(V, F, kind="voronoi").diagonal()
+    np.testing.assert_array_equal(old, mass_matrix(V, F, mass="voronoi").diagonal())
+    assert not np.array_equal(old, mass_matrix(V, F, mass="barycentric").diagonal())  # the old keyword is not dropped
+    with pytest.warns(DeprecationWarning), pytest.raises(OptionError, match="disagree"):
+        mass_matrix(V, F, mass="voronoi", kind="barycentric")
+
+
+def test_mass_of_tetrahedra_is_the_quarter_volume():
+    # a unit cube cut into 6 tets around the diagonal 0-7: each tet of volume 1/6 gives 1/24 to each corner
+    V = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=float)
+    T = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]])
+    d = mass_matrix(V, T).diagonal()
+    np.testing.assert_allclose(d, np.bincount(T.ravel(), minlength=8) / 24, rtol=1e-14)
+    assert d.sum() == pytest.approx(1.0, rel=1e-14)
+    with pytest.raises(OptionError, match="mass='barycentric'"):
+        mass_matrix(V, T, mass="voronoi")
+    with pytest.raises(MeshError, match=r"shape \(6, 5\)"):
+        mass_matrix(V, np.c_[T, T[:, :1]])
 
 
 def test_cotangents_in_blocks_change_no_bit(monkeypatch):

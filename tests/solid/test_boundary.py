@@ -106,7 +106,7 @@ def test_boundary_grows_with_connectivity():
 def test_digital_surface_of_a_ball(spacing, c):
     mask = mask_ball(spacing)
     origin = np.array([1.0, -2.0, 0.5])
-    voxels, P, E, normals = digital_surface(mask, spacing, origin, c)
+    voxels, P, E, normals = digital_surface(mask, spacing=spacing, origin=origin, connectivity=c)
     np.testing.assert_array_equal(voxels, np.argwhere(boundary_voxels(mask, c)))
     np.testing.assert_allclose(P, origin + voxels * np.asarray(spacing), rtol=0, atol=1e-12)
     # edges: distinct pairs i < j of boundary voxels that touch
@@ -123,7 +123,7 @@ def test_digital_surface_of_a_ball(spacing, c):
 
 def test_digital_surface_graph_is_the_graph_of_touching_boundary_voxels():
     mask = mask_ball((1.0, 1.0, 2.5))
-    voxels, P, E, normals = digital_surface(mask, (1.0, 1.0, 2.5))
+    voxels, P, E, normals = digital_surface(mask, spacing=(1.0, 1.0, 2.5))
     s = digital_surface_graph(P, E, normals)
     hops = digital_surface_graph(P, E, normals, distance="hops")
     n = len(voxels)
@@ -175,7 +175,7 @@ SPHERE5 = icosphere(5)
 
 def test_voxelize_sphere_volume():
     V, F = SPHERE5
-    mask, h, origin = voxelize(V, F, 64)
+    mask, h, origin = voxelize(V, F, resolution=64)
     assert mask.dtype == bool and mask.ndim == 3
     assert h.shape == (3,) and (h == h[0]).all() and h[0] == pytest.approx(2.0 / 64, rel=1e-6)
     volume = mask.sum() * h[0] ** 3
@@ -187,7 +187,7 @@ def test_voxelize_sphere_volume():
 
 def test_voxelize_inside_is_inside():
     V, F = SPHERE5
-    mask, h, origin = voxelize(V, F, 32)
+    mask, h, origin = voxelize(V, F, resolution=32)
     r = np.linalg.norm(voxel_centres(mask.shape, h, origin), axis=1).reshape(mask.shape)
     # the polyhedron lies in the unit ball and contains the ball of radius 0.999
     assert mask[r < 1 - 0.25 * h[0]].all()
@@ -199,21 +199,22 @@ def test_voxelize_inside_is_inside():
 def test_voxelize_open_surface():
     V, F = SPHERE5
     with pytest.raises(MeshError) as info:
-        voxelize(V, F[1:], 16)
+        voxelize(V, F[1:], resolution=16)
     msg = one_line(info)
     assert "open" in msg and "3 boundary edges" in msg and "allow_open" in msg
 
 
 def test_voxelize_small_hole_with_allow_open():
     V, F = SPHERE5
-    mask, h, _ = voxelize(V, F[1:], 64, allow_open=True)  # one triangle missing: winding numbers barely notice
+    # one triangle missing: winding numbers barely notice
+    mask, h, _ = voxelize(V, F[1:], resolution=64, allow_open=True)
     assert abs(mask.sum() * h[0] ** 3 / (4 / 3 * np.pi) - 1) < 0.03
 
 
 @pytest.mark.parametrize("bad", [1, 0, -5, "many", None])
 def test_voxelize_bad_resolution(bad):
     with pytest.raises(SampleError) as info:
-        voxelize(*icosphere(1), bad)
+        voxelize(*icosphere(1), resolution=bad)
     assert "resolution" in one_line(info)
 
 
@@ -222,7 +223,7 @@ def test_voxelize_bad_resolution(bad):
 def test_voxel_grid_is_the_grid_voxelize_uses(res, stretch):
     V, F = icosphere(2)
     V = V * stretch + [3.0, -1.0, 0.5]
-    mask, h, origin = voxelize(V, F, res)
+    mask, h, origin = voxelize(V, F, resolution=res)
     shape, h2, origin2 = voxel_grid(V, res)
     assert shape == mask.shape and max(shape) == res + 2  # the longest side, padded by one layer each end
     assert np.array_equal(h, np.full(3, h2)) and np.array_equal(origin, origin2)

@@ -241,7 +241,7 @@ def test_files_carry_std(tmp_path):
     assert np.allclose(r.to_meshio(["a", "b"]).point_data["a_std"], r.std[:, 0])
     mask = np.ones((5, 6, 7), dtype=bool)
     m = gp_voxels(mask, [[0, 0, 0], [4, 5, 6], [2, 2, 2]], [1.0, 2.0, 0.5], spacing=(1, 2, 3), gp={"range": 4.0})
-    write_vti(tmp_path / "g.vti", m.point_data(["t"]), m.spacing, m.origin)
+    write_vti(tmp_path / "g.vti", m.point_data(["t"]), spacing=m.spacing, origin=m.origin)
     fields, h, _ = read_vti(tmp_path / "g.vti")
     assert np.allclose(fields["t_std"], m.std) and h.tolist() == [1.0, 2.0, 3.0]
     pv = pytest.importorskip("pyvista")

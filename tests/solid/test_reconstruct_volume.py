@@ -131,7 +131,7 @@ def test_reconstruct_volume_bad_input():
     with pytest.raises(OptionError) as info:
         reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), form="hexes")
     assert "form" in one_line(info)
-    with pytest.raises(TypeError, match="unexpected keyword argument 'colour'"):
+    with pytest.raises((TypeError, OptionError), match="'colour'"):  # refused as manifill.reconstruct refuses it
         reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), colour="red")
     with pytest.raises(ManifillError) as info:
         reconstruct_volume(V, F[1:], SOME_V, field(V[SOME_V]), resolution=8)
@@ -339,3 +339,122 @@ def test_options_of_the_other_form_are_refused(form, option):
         reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), form=form, **option)
     name = next(iter(option))
     assert one_line(info).startswith(f"{name}=") and "does nothing with form" in one_line(info)
+
+
+# ---------------------------------------------------------------------------
+# one vocabulary: fill_solver / fill_weights for the inside, **options for the surface step
+# ---------------------------------------------------------------------------
+
+
+def test_the_three_entry_points_speak_one_way():
+    import inspect
+
+    sigs = {f.__name__: inspect.signature(f).parameters
+            for f in (reconstruct_volume, reconstruct_volume_tets, reconstruct_volume_mask)}
+    for name, params in sigs.items():
+        assert params["fill_solver"].default == "auto", name
+        assert list(params.values())[-1].kind is inspect.Parameter.VAR_KEYWORD, name  # the surface step's options
+        assert not {"solver", "weights", "method", "partition"} & set(params), name  # those are the surface's
+        assert len(params) <= 12, name
+    assert sigs["reconstruct_volume"]["fill_weights"].default == sigs["reconstruct_volume_tets"]["fill_weights"].default
+    assert sigs["reconstruct_volume"]["fill_weights"].default == "cotan"
+
+
+class _Stop(Exception):
+    """Raised by a spy once it has seen its call: the rest of the run does not matter."""
+
+
+def _spy(monkeypatch, name):
+    import manifill.solid.reconstruct_volume as rv
+
+    seen = {}
+
+    def spy(*args, **kwargs):
+        seen.update(kwargs)
+        raise _Stop
+
+    monkeypatch.setattr(rv, name, spy)
+    return seen
+
+
+OPTIONS = dict(method="harmonic", partition="tree", solver="direct", bounds="samples", tol=1e-9, check=False)
+
+
+def test_surface_options_reach_reconstruct_unchanged(monkeypatch):
+    # every keyword manifill.reconstruct takes (bounds and check too, once refused here) is passed on as given
+    seen = _spy(monkeypatch, "reconstruct")
+    V, F = SPHERE
+    with pytest.raises(_Stop):
+        reconstruct_volume(V, F, SOME_V, field(V[SOME_V]), resolution=8, fill_solver="direct", **OPTIONS)
+    assert seen == OPTIONS
+
+
+@needs_tetgen
+def test_surface_options_reach_the_tet_mesh_surface_unchanged(monkeypatch):
+    seen = _spy(monkeypatch, "reconstruct")
+    V, T = tet_ball(2)
+    b = np.unique(boundary_faces(T))[::5]
+    with pytest.raises(_Stop):
+        reconstruct_volume_tets(V, T, b, V[b, 0], fill_weights="uniform", duplicates="mean", **OPTIONS)
+    assert seen == {**OPTIONS, "duplicates": "mean"}
+
+
+def test_surface_options_reach_the_digital_surface_with_its_default_weights(monkeypatch):
+    seen = _spy(monkeypatch, "reconstruct_surface")
+    mask = mask_ball()
+    on = np.argwhere(boundary_voxels(mask))[::9]
+    with pytest.raises(_Stop):
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, distance="hops", **OPTIONS)
+    seconds = seen.pop("seconds")
+    assert {"validate", "graph"} <= set(seconds)
+    # weights: the one a digital surface can use, unless given; distance shaped the graph, not the fill
+    assert seen == {**OPTIONS, "weights": "uniform"}
+    seen.clear()
+    with pytest.raises(_Stop):
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, weights="uniform", **OPTIONS)
+    assert seen["weights"] == "uniform"
+
+
+def test_mask_refuses_what_a_digital_surface_or_voxels_cannot_use():
+    mask = mask_ball()
+    on = np.argwhere(boundary_voxels(mask))[::9]
+    for kw, words in [({"max_distance": 0.5}, "positions"), ({"fill_weights": "uniform"}, "for tetrahedra"),
+                      ({"fill_solver": "iterate"}, "fill_solver")]:
+        with pytest.raises(OptionError) as info:
+            reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, **kw)
+        assert words in one_line(info)
+    with pytest.raises(OptionError, match="no option 'seconds'"):
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, seconds={})
+    with pytest.raises((TypeError, OptionError), match="'colour'"):  # as manifill.reconstruct refuses it
+        reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, colour="red")
+    # the default fill weights are accepted, as reconstruct_volume(form='voxels') accepts them
+    r = reconstruct_volume_mask(mask, on, on[:, 0] * 1.0, fill_weights="cotan", method="harmonic")
+    np.testing.assert_allclose(r.values[tuple(on.T)], on[:, 0], rtol=0, atol=1e-9)
+
+
+@needs_tetgen
+def test_tets_take_the_same_fill_options_either_way():
+    V, T = tet_ball(2)
+    b = np.unique(boundary_faces(T))[::5]
+    for bad, words in [({"fill_solver": "iterate"}, "fill_solver='iterate'"),
+                       ({"fill_weights": "intrinsic"}, "fill_weights='intrinsic'")]:
+        with pytest.raises(OptionError) as info:
+            reconstruct_volume_tets(V, T, b, V[b, 0], **bad)
+        assert one_line(info).startswith(words)
+
+
+@needs_tetgen
+@pytest.mark.parametrize("option", [dict(solver="direct"), dict(partition="tree"), dict(weights="uniform"),
+                                    dict(curve_values="linear"), dict(bounds="samples")])
+def test_gp_in_a_solid_refuses_the_surface_steps_options(option):
+    # method='gp' in a solid runs no surface step: its options would do nothing, so they are refused
+    mask = np.ones((6, 6, 6), dtype=bool)
+    vox = np.array([[0, 0, 0], [5, 5, 5], [0, 5, 0], [5, 0, 5]])
+    V, T = tet_ball(2)
+    b = np.unique(boundary_faces(T))[::5]
+    name = next(iter(option))
+    for call in (lambda: reconstruct_volume_mask(mask, vox, np.arange(4.0), method="gp", **option),
+                 lambda: reconstruct_volume_tets(V, T, b, V[b, 0], method="gp", **option)):
+        with pytest.raises(OptionError) as info:
+            call()
+        assert one_line(info).startswith(f"{name}=") and "fill_solver" in one_line(info)

@@ -11,6 +11,7 @@ from manifill.errors import OptionError
 from manifill.mesh.graph import mesh_graph
 from manifill.surface.gradual import check_gradual
 from manifill.surface.partition import partition
+from manifill.surface.surface import Surface
 from manifill.mesh.shapes import grid as shapes_grid
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
@@ -36,7 +37,7 @@ def network(name, method, distance, seed, k):
     V, F = mesh(name)
     rng = np.random.default_rng(seed)
     idx = np.sort(rng.choice(len(V), size=min(k, len(V)), replace=False))
-    part = partition(V, F, idx, mesh_graph(V, F, distance=distance), method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F, distance=distance), method=method)
     return V, F, idx, part, rng
 
 
@@ -137,7 +138,7 @@ STRAIGHT = [
 def grid_network(diagonal, samples, method):
     V, F = shapes_grid(N, diagonal=diagonal)
     idx = np.sort(SAMPLES[samples])
-    part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F, distance="length"), method=method)
     return V, F, idx, part
 
 
@@ -215,7 +216,7 @@ def test_gvf_curve_values_equal_the_samples_at_the_samples():
     vals = rng.standard_normal(10)
     check = check_gradual(mesh_graph(V, F, distance="hops"), idx, vals)
     assert check.level_error > 0.1
-    part = partition(V, F, idx, mesh_graph(V, F, distance="length"))
+    part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F, distance="length"))
     cv, x = curve_values(V, part.curve_edges(), idx, vals, method="gvf", levels=check.levels, level=check.level)
     np.testing.assert_allclose(x[np.searchsorted(cv, idx)], vals)
 
@@ -312,7 +313,7 @@ LATTICES = [(15, 7), (21, 5)]
 def test_hermite_reproduces_a_quadratic_where_the_gradient_fits_are_quadratic(n, step, field):
     V, F = shapes_grid(n)
     idx = np.sort([j * n + i for i in range(0, n, step) for j in range(0, n, step)])
-    part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method="delaunay")
+    part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F, distance="length"), method="delaunay")
     f, _ = quadratic_field(QUADRATICS[field])
     assert all(straight(V, c) for c in part.curves), "precondition: straight paths"
     near = two_step_samples(idx, part.ends)
@@ -560,7 +561,7 @@ def test_hermite_on_the_cycle_partition_stays_near_the_samples_range():
     worst = 0.0
     for seed in (0, 1):
         idx = np.sort(np.random.default_rng([seed, 100]).choice(len(V), size=100, replace=False))
-        part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method="cycle")
+        part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F, distance="length"), method="cycle")
         _, x = on_paths(V, F, part, idx, f[idx], "hermite")
         lo, hi = f[idx].min(), f[idx].max()
         worst = max(worst, max(x.max() - hi, lo - x.min()) / (hi - lo))

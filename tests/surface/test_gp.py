@@ -43,7 +43,7 @@ def _sigma_dense(V, F, rng_, sigma, alpha=2):
     kappa = math.sqrt(8.0) / rng_
     tau2 = 1.0 / (4 * math.pi * kappa ** 2 * sigma ** 2)
     G = laplacian(V, F).toarray()
-    c = mass_matrix(V, F).diagonal()
+    c = mass_matrix(V, F, mass="barycentric").diagonal()
     K = kappa ** 2 * np.diag(c) + G
     return np.linalg.inv(tau2 * (K @ np.diag(1.0 / c) @ K))
 
@@ -288,7 +288,7 @@ def test_energy_method_std_is_the_intrinsic_oracle(method):
     if method == "harmonic":
         E = L
     else:
-        m = mass_matrix(V, F, kind="voronoi").diagonal()
+        m = mass_matrix(V, F, mass="voronoi").diagonal()
         E = L @ np.diag(1.0 / m) @ L
     x = r.values
     s2 = x @ E @ x / (idx.size - 1)

@@ -428,3 +428,115 @@ def test_from_laplacian_accepts_integer_matrices_and_refuses_nan():
         HarmonicSolver.from_laplacian(sp.csr_array(np.ones((3, 4))), [0])
     with pytest.raises(MeshError, match="sparse matrix"):
         HarmonicSolver.from_laplacian("abc", [0])
+
+
+# ---------------------------------------------------------------------------
+# tetrahedra (V, T): the same call, told apart by the width of the element array
+# ---------------------------------------------------------------------------
+
+
+def kuhn_cube(n=5):
+    """The unit cube's n^3 lattice, each cell cut into the 6 Kuhn tets along its diagonal (no obtuse dihedral angle)."""
+    import itertools
+
+    g = np.linspace(0.0, 1.0, n)
+    V = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    T = []
+    for cell in itertools.product(range(n - 1), repeat=3):
+        for order in itertools.permutations(range(3)):
+            p, tet = np.array(cell), []
+            tet.append(int(np.ravel_multi_index(p, (n, n, n))))
+            for axis in order:
+                p = p.copy()
+                p[axis] += 1
+                tet.append(int(np.ravel_multi_index(p, (n, n, n))))
+            T.append(tet)
+    return V, np.array(T, dtype=np.int64)
+
+
+def jittered_cube(n=6, seed=0):
+    """Delaunay tets of the cube's lattice with the inner points moved: no two tets alike, obtuse angles."""
+    from scipy.spatial import Delaunay
+
+    from manifill.mesh.tetmesh import tet_volumes
+
+    V, _ = kuhn_cube(n)
+    inner = ((V > 0) & (V < 1)).all(axis=1)
+    V[inner] += np.random.default_rng(seed).uniform(-0.25, 0.25, (int(inner.sum()), 3)) / (n - 1)
+    T = Delaunay(V).simplices.astype(np.int64)
+    return V, T[np.abs(tet_volumes(V, T)) > 1e-9]
+
+
+def cube_boundary(V):
+    return np.flatnonzero(((V == 0) | (V == 1)).any(axis=1))
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_tets_reproduce_a_linear_function(solver):
+    # the P1 stiffness is exact for linear functions: fixed on the cube's faces, one is reproduced inside
+    V, T = jittered_cube()
+    b = cube_boundary(V)
+    u = V @ np.array([1.5, -2.0, 0.7]) + 0.3
+    x = harmonic(V, T, b, u[b], solver=solver, tol=1e-13, maxiter=20000)
+    assert b.size < len(V) - 50  # many vertices inside
+    np.testing.assert_allclose(x, u, rtol=0, atol=1e-8 if solver != "direct" else 1e-12)
+    # uniform weights ignore geometry: not exact on this mesh (the test can tell the weights apart)
+    assert np.abs(harmonic(V, T, b, u[b], weights="uniform") - u).max() > 1e-3
+
+
+def test_tets_equal_biharmonic_k1_and_the_solid_fill():
+    from manifill import biharmonic
+    from manifill.solid.fill import tet_fill
+
+    V, T = jittered_cube(seed=4)
+    b, bc = random_problem(V, seed=7, p=2)
+    for weights in ("cotan", "uniform"):
+        x = harmonic(V, T, b, bc, weights=weights)
+        np.testing.assert_array_equal(x[b], bc)
+        np.testing.assert_allclose(x, biharmonic(V, T, b, bc, k=1, weights=weights), rtol=0, atol=1e-10)
+        np.testing.assert_allclose(x, tet_fill(V, T, b, bc, weights=weights), rtol=0, atol=1e-10)
+    assert np.abs(harmonic(V, T, b, bc) - harmonic(V, T, b, bc, weights="uniform")).max() > 1e-3
+
+
+@pytest.mark.parametrize("mesh, weights", [(kuhn_cube, "cotan"), (kuhn_cube, "uniform"), (jittered_cube, "uniform")])
+def test_tets_maximum_principle_where_the_weights_are_non_negative(mesh, weights):
+    V, T = mesh()
+    solver = HarmonicSolver(V, T, random_problem(V, seed=2)[0], weights=weights)
+    W = solver.L.tocoo()
+    assert (W.data[W.row != W.col] <= 1e-12).all()  # every weight w_ij = -L_ij >= 0: the principle must hold
+    for seed in range(3):
+        bc = np.random.default_rng(seed).uniform(-2.0, 3.0, solver.idx.size)
+        x = solver.solve(bc)
+        assert_max_principle(x, bc)
+        free = np.setdiff1d(np.arange(len(V)), solver.idx)
+        assert np.ptp(x[free]) > 0  # a real fill, not constants
+
+
+def test_tets_solver_object_and_report():
+    V, T = kuhn_cube(4)
+    b = cube_boundary(V)
+    s = HarmonicSolver(V, T, b)
+    assert s.L.shape == (64, 64) and s.report["weights"] == "cotan" and s.report["unknowns"] == 8
+    bc = np.column_stack([V[b, 0], V[b, 1] * V[b, 2]])
+    np.testing.assert_array_equal(s.solve(bc)[:, 1], s.solve(bc[:, 1]))
+    np.testing.assert_allclose(s.solve(bc[:, 0]), V[:, 0], rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("width", [1, 2, 5])
+def test_element_widths_other_than_3_or_4_are_a_clear_error(width):
+    V, T = kuhn_cube(3)
+    F = np.tile(T, 2)[:, :width]
+    for call in (lambda: harmonic(V, F, [0, 26], [0.0, 1.0]), lambda: HarmonicSolver(V, F, [0, 26])):
+        with pytest.raises(MeshError) as info:
+            call()
+        msg = str(info.value)
+        assert f", {width})" in msg and "(m, 3)" in msg and "(m, 4)" in msg and "\n" not in msg
+
+
+@pytest.mark.parametrize("weights", ["intrinsic", "robust"])
+def test_tets_refuse_triangle_only_weights(weights):
+    from manifill import OptionError
+
+    V, T = kuhn_cube(3)
+    with pytest.raises(OptionError, match="tetrahedra take 'cotan' or 'uniform'"):
+        harmonic(V, T, [0, 26], [0.0, 1.0], weights=weights)

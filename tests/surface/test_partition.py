@@ -13,6 +13,7 @@ from conftest import edge_set, grid, icosphere, irregular, torus, two_components
 from manifill.errors import OptionError
 from manifill.mesh.graph import mesh_graph
 from manifill.surface.partition import partition
+from manifill.surface.surface import Surface
 
 hsettings = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow])
@@ -131,7 +132,7 @@ def test_partition_invariants(name, method, distance, seed, k):
     rng = np.random.default_rng(seed)
     idx = np.sort(rng.choice(len(V), size=k, replace=False))
     G = mesh_graph(V, F, distance=distance)
-    part = partition(V, F, idx, G, method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=G, method=method)
     assert part.report["method"] == method
     assert_partition(V, F, E, idx, G, part)
     if method == "tree":
@@ -162,7 +163,7 @@ def test_five_samples_on_a_sphere_give_one_cycle_and_two_patches(k, dirs, distan
     V, F = icosphere(k)
     idx = np.array([int(np.argmax(V @ np.asarray(d, float))) for d in WELL_SPREAD_5[dirs]])
     G = mesh_graph(V, F, distance=distance)
-    part = partition(V, F, idx, G, method="cycle")
+    part = partition(Surface.from_mesh(V, F), idx, graph=G, method="cycle")
     assert_partition(V, F, edge_set(F), np.sort(idx), G, part)
     assert len(part.curves) == 5
     # one closed simple cycle: every curve vertex has exactly two curve neighbours, and it is connected
@@ -183,7 +184,7 @@ def test_twelve_icosahedron_vertices_give_the_icosahedron():
     idx = np.arange(12)
     for distance in ("hops", "length"):
         G = mesh_graph(V, F, distance=distance)
-        part = partition(V, F, idx, G, method="delaunay")
+        part = partition(Surface.from_mesh(V, F), idx, graph=G, method="delaunay")
         assert_partition(V, F, edge_set(F), idx, G, part)
         assert part.report["curves"] == 30
         assert part.report["patches"] == 20
@@ -202,7 +203,7 @@ def test_twelve_guiding_points_on_the_torus(distance, seed):
     rng = np.random.default_rng(seed)
     idx = np.sort(rng.choice(len(V), size=12, replace=False))
     G = mesh_graph(V, F, distance=distance)
-    part = partition(V, F, idx, G, method="delaunay")
+    part = partition(Surface.from_mesh(V, F), idx, graph=G, method="delaunay")
     assert_partition(V, F, edge_set(F), idx, G, part)
     assert part.on_curve[idx].all()
     assert part.report["patches"] >= 2
@@ -217,7 +218,7 @@ def test_tree_leaves_one_patch_on_a_sphere(distance, seed):
     k = int(rng.integers(2, 16))
     idx = np.sort(rng.choice(len(V), size=k, replace=False))
     G = mesh_graph(V, F, distance=distance)
-    part = partition(V, F, idx, G, method="tree")
+    part = partition(Surface.from_mesh(V, F), idx, graph=G, method="tree")
     assert_partition(V, F, E, idx, G, part)
     assert len(part.curves) == k - 1
     assert part.report["patches"] == 1
@@ -232,11 +233,11 @@ def test_tree_leaves_one_patch_on_a_sphere(distance, seed):
 def test_one_and_two_samples(method, distance):
     V, F, E = mesh("icosphere2")
     G = mesh_graph(V, F, distance=distance)
-    one = partition(V, F, np.array([7]), G, method=method)
+    one = partition(Surface.from_mesh(V, F), np.array([7]), graph=G, method=method)
     assert_partition(V, F, E, np.array([7]), G, one)
     assert one.curves == [] and one.report["patches"] == 1 and one.report["curve_length"] == 0.0
     assert one.report["inner_points"] == len(V) - 1
-    two = partition(V, F, np.array([3, 40]), G, method=method)
+    two = partition(Surface.from_mesh(V, F), np.array([3, 40]), graph=G, method=method)
     assert_partition(V, F, E, np.array([3, 40]), G, two)
     assert len(two.curves) == 1 and two.report["patches"] == 1
     assert sorted([two.curves[0][0], two.curves[0][-1]]) == [3, 40]
@@ -248,7 +249,7 @@ def test_two_components_with_samples_in_both(method, distance):
     V, F, E = mesh("two_components")
     idx = np.array([0, 5, 15, 17, 23])
     G = mesh_graph(V, F, distance=distance)
-    part = partition(V, F, idx, G, method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=G, method=method)
     assert_partition(V, F, E, idx, G, part)
     comp = (np.arange(len(V)) >= 16).astype(int)
     for c in part.curves:
@@ -262,7 +263,7 @@ def test_cycle_on_two_components_with_samples_in_both(distance):
     V, F, E = mesh("two_components")
     idx = np.array([0, 5, 15, 17, 23])
     G = mesh_graph(V, F, distance=distance)
-    assert_partition(V, F, E, idx, G, partition(V, F, idx, G, method="cycle"))
+    assert_partition(V, F, E, idx, G, partition(Surface.from_mesh(V, F), idx, graph=G, method="cycle"))
 
 
 def test_partition_invariants_on_dense_samples():
@@ -271,14 +272,14 @@ def test_partition_invariants_on_dense_samples():
     for idx in (np.arange(len(V)), np.arange(0, len(V), 2)):
         for method in METHODS:
             G = mesh_graph(V, F, distance="length")
-            part = partition(V, F, idx, G, method=method)
+            part = partition(Surface.from_mesh(V, F), idx, graph=G, method=method)
             assert_partition(V, F, E, idx, G, part)
 
 
 def test_unknown_method_raises():
     V, F, _ = mesh("icosphere2")
     with pytest.raises(OptionError):
-        partition(V, F, np.array([0, 1]), mesh_graph(V, F, distance="hops"), method="voronoi")
+        partition(Surface.from_mesh(V, F), np.array([0, 1]), graph=mesh_graph(V, F, distance="hops"), method="voronoi")
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -290,7 +291,7 @@ def test_steepest_curve_bounds_the_hop_lipschitz_constant_from_below(name, metho
     rng = np.random.default_rng(len(name))
     idx = np.sort(rng.choice(len(V), 12, replace=False))
     X = np.column_stack([V[idx, 0], rng.uniform(-1, 1, 12), np.full(12, 2.0)])
-    part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F, distance="length"), method=method)
     starts = part.steepest(idx, X)
     D = csgraph.shortest_path(mesh_graph(V, F, distance="hops"), unweighted=True, indices=idx)[:, idx]
     for j, (K0, (a, b)) in enumerate(starts):
@@ -310,7 +311,7 @@ def test_steepest_curve_bounds_the_hop_lipschitz_constant_from_below(name, metho
 
 def test_steepest_without_curves():
     V, F, _ = mesh("grid")
-    part = partition(V, F, np.array([3]), mesh_graph(V, F, distance="hops"), method="delaunay")
+    part = partition(Surface.from_mesh(V, F), np.array([3]), graph=mesh_graph(V, F, distance="hops"), method="delaunay")
     assert part.curves == [] and part.steepest(np.array([3]), np.ones((1, 2))) == [None, None]
 
 
@@ -349,7 +350,7 @@ def slow_partition(V, F, idx, G, method):
     sizes = np.bincount(lab[lab >= 0], minlength=count)
     rank = np.empty(count, dtype=np.int64)
     rank[np.argsort(-sizes, kind="stable")] = np.arange(count)
-    labels = np.where(lab >= 0, rank[np.maximum(lab, 0)], -1)
+    labels = np.where(lab >= 0, rank[np.maximum(lab, 0)], -1) if count else np.full(len(V), -1)  # all on curves
     return curves, ends, on, labels
 
 
@@ -360,7 +361,7 @@ def test_all_paths_at_once_equal_one_path_at_a_time(name, method, distance, seed
     V, F, _ = mesh(name)
     idx = np.sort(np.random.default_rng(seed).choice(len(V), size=min(k, len(V)), replace=False))
     G = mesh_graph(V, F, distance=distance)
-    part = partition(V, F, idx, G, method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=G, method=method)
     curves, ends, on, labels = slow_partition(V, F, idx, G, method)
     assert [c.tolist() for c in part.curves] == curves
     assert part.ends.tolist() == [list(e) for e in ends]

@@ -371,17 +371,17 @@ def compose(V, F, idx, vals, *, method=None, partition="delaunay", weights="cota
 
     s = Surface.from_mesh(V, F, distance=distance, allow_degenerate=weights in ("uniform", "robust"))
     idx, X, squeeze = as_samples(idx, vals, s.n)
-    part = draw(s.V, s.F, idx, s.G, method=partition) if method == "gvf-harmonic" else None
+    part = draw(s, idx, method=partition) if method == "gvf-harmonic" else None
     starts = part.steepest(idx, X) if part is not None else [None] * X.shape[1]
-    checks = [check_gradual(s.G_hops, idx, X[:, j], levels=levels, start=starts[j]) for j in range(X.shape[1])]
+    checks = [check_gradual(s, idx, X[:, j], levels=levels, start=starts[j]) for j in range(X.shape[1])]
     if method == "gvf":
         out = gvf_fill(s, idx, X, checks)
     else:
         b, bc = values_on_curves(s, part, idx, X, method=curve_values, checks=checks) if part else (idx, X)
-        lohi = {"lo": X.min(axis=0), "hi": X.max(axis=0)} if bounded and part else {}
-        bc = np.clip(bc, lohi["lo"], lohi["hi"]) if lohi else bc
+        lohi = (X.min(axis=0), X.max(axis=0)) if bounded and part else None
+        bc = np.clip(bc, *lohi) if lohi else bc
         out, _ = fill_patches(s, b, bc, weights=weights, solver=solver,
-                              x0=lambda: start_values(init, s, idx, X, checks=checks, seed=seed), **lohi)
+                              x0=lambda: start_values(init, s, idx, X, checks=checks, seed=seed), bounds=lohi)
     return (out[:, 0] if squeeze else out), part, checks
 
 

@@ -9,7 +9,7 @@ import manifill
 from manifill.errors import OptionError, SampleError
 from manifill.linalg import backends
 from manifill.mesh.shapes import icosphere
-from manifill.surface.methods import CHECK_FIELDS
+from manifill.surface.methods.base import CHECK_FIELDS
 
 V, F = icosphere(3)
 N = len(V)

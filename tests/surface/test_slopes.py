@@ -17,6 +17,7 @@ from manifill.mesh.graph import mesh_graph
 from manifill.surface.curve_values import vertex_normals
 from manifill.surface.partition import partition
 from manifill.surface.slopes import sample_gradients
+from manifill.surface.surface import Surface
 from manifill.tolerances import TOL
 
 hsettings = settings(max_examples=30, deadline=None, derandomize=True, database=None,
@@ -60,7 +61,7 @@ def slow_gradients(V, normals, ends, idx, vals):
 
 def network(V, F, k, seed, method):
     idx = np.sort(np.random.default_rng(seed).choice(len(V), size=k, replace=False))
-    part = partition(V, F, idx, mesh_graph(V, F), method=method)
+    part = partition(Surface.from_mesh(V, F), idx, graph=mesh_graph(V, F), method=method)
     return idx, part.ends
 
 

@@ -2,6 +2,9 @@
 
 import time
 
+from ..mesh.graph import mesh_graph
+from ..surface.gradual import check_gradual
+from ..validate import as_mesh
 from .common import levels, load
 from .options import DISTANCES, sample_args
 
@@ -24,10 +27,6 @@ def add_parser(sub):
 
 def run(args):
     """``manifill check MESH SAMPLES``: exit 0 if the condition holds, 1 if not."""
-    from ..mesh.graph import mesh_graph
-    from ..surface.gradual import check_gradual
-    from ..validate import as_mesh
-
     V, F, S = load(args)
     V, F = as_mesh(V, F, allow_degenerate=True)
     G = mesh_graph(V, F, distance=args.distance)

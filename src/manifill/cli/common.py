@@ -15,9 +15,18 @@ import tempfile
 from pathlib import Path
 
 from ..errors import OptionError, SampleError, WriteError
+from ..io import MESH_FORMATS, VALUE_FORMATS, check_field_names, format_note, read_mesh_file, read_samples, write_mesh
+from ..mesh.clean import clean_mesh
+from .. import progress
+from ..report import uncertainty_lines, value_ranges
+from ..results import TRUSTED
+from ..surface.samples import Samples
+from ..viz.render import render_fields
+from ..viz.viewer import write_html
+from ..surface.methods.registry import METHODS, method_of
 
 __all__ = ["load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
-           "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "STD_METHODS",
+           "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
            "wants_std", "uncertainty_opts", "std_names", "print_uncertainty"]
 
 
@@ -32,9 +41,6 @@ def load(args, keep_points=False):
     V, F : numpy arrays
     S : manifill.surface.samples.Samples
     """
-    from ..io import read_mesh_file, read_samples
-    from ..surface.samples import Samples
-    from ..mesh.clean import clean_mesh
 
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
@@ -127,7 +133,6 @@ def check_outputs(outputs, inputs):
 
 def write_surface(out, V, F, point_data):
     """Write named fields (and manifill's masks) to a mesh file, saying what the format renamed or hides."""
-    from ..io import format_note, write_mesh
 
     written = write_mesh(out, V, F, point_data)
     renamed = {a: b for a, b in written.items() if a != b}
@@ -182,9 +187,8 @@ def step_bar(args, steps):
     steps : sequence of str
         The names of the steps the run will tell the bar, in order: the bar's total.
     """
-    from ..progress import StepBar
 
-    return StepBar(len(steps), enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
+    return progress.StepBar(len(steps), enabled=not getattr(args, "quiet", False), desc=f"manifill {args.command}")
 
 
 def print_time(args, seconds):
@@ -221,14 +225,12 @@ def pictures(args, V, F, X, names, samples=None, curves=None, title=None, extra=
     fields = {name: X[:, j] for j, name in enumerate(names)}
     fields.update(extra or {})
     if getattr(args, "render", None):
-        from ..viz.render import render_fields
 
         show = [field] + ([k for k in (f"{field}_std", "trusted") if k in fields] if field in names else [])
         render_fields(V, F, {k: fields[k] for k in show}, args.render, show=show, samples=samples, curves=curves,
                       title=title)
         print(f"rendered {args.render} ({', '.join(show)})")
     if getattr(args, "html", None):
-        from ..viz.viewer import write_html
 
         write_html(args.html, V, F, fields, field=field, samples=samples, curves=curves,
                    title=title or "manifill")
@@ -243,7 +245,6 @@ def err(msg):
 
 def surface_outputs(args, pictures=True, extra=()):
     """-o (and --render/--html) of a surface command, checked before any work (``extra``: more -o suffixes)."""
-    from ..io import MESH_FORMATS, VALUE_FORMATS
 
     meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
     outs = [("-o", args.output, meshes + VALUE_FORMATS + tuple(extra))]
@@ -255,7 +256,6 @@ def surface_outputs(args, pictures=True, extra=()):
 
 def check_names(args, S, out):
     """The field names against the output's format and manifill's masks, and --field, before the work."""
-    from ..io import check_field_names
 
     check_field_names(S.names, out)
     added = [name for name in std_names(args, S.names) if name in S.names]
@@ -267,7 +267,6 @@ def check_names(args, S, out):
 
 def print_ranges(X, S, out):
     """Each field's range beside the samples' (overshoot shows), and the output path."""
-    from ..report import value_ranges
 
     (lo, hi), (slo, shi) = value_ranges(X), value_ranges(S.vals)
     for j, name in enumerate(S.names):
@@ -276,7 +275,12 @@ def print_ranges(X, S, out):
 
 
 #: the methods with a probability model (a standard deviation): --uncertainty and --trust take only these
-STD_METHODS = ("gp", "harmonic", "biharmonic", "triharmonic")
+def std_methods():
+    """The methods that give a std, the Gaussian process first (``gp, harmonic, biharmonic or triharmonic``)."""
+    have = [name for name in METHODS if method_of(name).gives_std]
+    return sorted(have, key=lambda name: not method_of(name).gp_mean)
+
+
 _GP_FLAGS = (("gp_alpha", "--gp-alpha"), ("gp_range", "--gp-range"), ("gp_sigma", "--gp-sigma"), ("noise", "--noise"),
              ("variance", "--variance"), ("variance_samples", "--variance-samples"))
 
@@ -312,15 +316,17 @@ def _auto_or_number(text, flag, zero=False):
 
 def wants_std(args):
     """Whether the run computes a standard deviation (--method gp, --uncertainty or --trust)."""
-    return (getattr(args, "method", None) == "gp" or getattr(args, "uncertainty", False)
-            or getattr(args, "trust", None) is not None)
+    method = getattr(args, "method", None)
+    return (method is not None and method_of(method).gp_mean) or getattr(args, "uncertainty", False) \
+        or getattr(args, "trust", None) is not None
 
 
-def uncertainty_opts(args, methods=STD_METHODS):
+def uncertainty_opts(args, *, in_solid=False):
     """The keywords of ``--method gp``, ``--uncertainty``, ``--trust`` and ``--untrusted`` for the library.
 
     Every combination the library would refuse is refused here first, naming the flags, before
-    anything is read. ``methods``: those that give a std (in a solid, ``('gp',)`` alone).
+    anything is read. ``in_solid``: only the Gaussian process gives a std there (the fill of the
+    inside is not a model).
 
     Returns
     -------
@@ -334,28 +340,31 @@ def uncertainty_opts(args, methods=STD_METHODS):
         A gp option without --method gp, --uncertainty or --trust with a method that has no standard
         deviation, --untrusted without --trust, a bad number.
     """
-    method = args.method
-    named = method or "the default method (gvf-harmonic)"
+    m = method_of(args.method)
+    named = args.method or f"the default method ({m.name})"
+    asks = args.uncertainty or args.trust is not None
+    model = m.gp_mean or (m.gives_std and not in_solid)
     given = [flag for key, flag in _GP_FLAGS if getattr(args, key, None) is not None]
-    energy_std = method in STD_METHODS[1:] and method in methods and (args.uncertainty or args.trust is not None)
+    energy_std = model and not m.gp_mean and asks
     if energy_std:  # an energy method's std: how its variance is computed may be given
         given = [flag for flag in given if flag not in ("--variance", "--variance-samples")]
-    if given and method != "gp":
+    if given and not m.gp_mean:
         hint = " (the energy methods take noisy samples with --smoothing)" if given[0] == "--noise" else ""
-        if given[0] in ("--variance", "--variance-samples") and method in STD_METHODS[1:]:
+        if given[0] in ("--variance", "--variance-samples") and m.gives_std:
             raise OptionError(f"{given[0]} says how --uncertainty computes the std; pass --uncertainty too, or "
                               f"leave {given[0]} out")
         raise OptionError(f"{given[0]} is an option of --method gp, not of {named}; pass --method gp or leave "
                           f"{given[0]} out{hint}")
-    if (args.uncertainty or args.trust is not None) and method not in methods:
+    if asks and not model:
         flag = "--uncertainty" if args.uncertainty else "--trust"
-        why = " (its curve values are estimates, not a model)" if method in (None, "gvf-harmonic", "gvf") else ""
-        if len(methods) == 1:
-            why, which = " in a solid (the harmonic fill of the inside is not a model)", methods[0]
-        else:
-            which = f"{', '.join(methods[:-1])} or {methods[-1]}"
+        # the pipeline and the gradually varied fit: values committed on curves or levels, no model behind them
+        why = " (its curve values are estimates, not a model)" if not (m.can_smooth or m.delegates) else ""
+        with_std = [name for name in std_methods() if not in_solid or method_of(name).gp_mean]
+        if in_solid:
+            why = " in a solid (the harmonic fill of the inside is not a model)"
+        which = with_std[0] if len(with_std) == 1 else f"{', '.join(with_std[:-1])} or {with_std[-1]}"
         raise OptionError(f"{flag} needs a probability model, and {named} has none{why}; pass --method {which}")
-    if method == "gp":
+    if m.gp_mean:
         for key, flag, fix in (("bounds", "--bounds", "leave it out"),
                                ("smoothing", "--smoothing", "give the samples' noise as --noise X or --noise auto")):
             if getattr(args, key, None) is not None:
@@ -366,7 +375,7 @@ def uncertainty_opts(args, methods=STD_METHODS):
         if getattr(args, "solver", None) == "iterate":
             raise OptionError("--method gp solves with --solver direct or amg (or auto), not iterate; pick one of "
                               "those")
-    elif args.uncertainty or args.trust is not None:
+    elif asks:
         if getattr(args, "bounds", None) is not None:
             raise OptionError("--uncertainty (or --trust) and --bounds together are not supported: a bounded fill "
                               "is not a Gaussian posterior mean; leave one out")
@@ -379,7 +388,7 @@ def uncertainty_opts(args, methods=STD_METHODS):
     out = {}
     if energy_std and (args.variance is not None or args.variance_samples is not None):
         out["gp"] = _variance_opts(args, {})
-    if method == "gp":
+    if m.gp_mean:
         gp = {}
         for key, flag, name, zero in (("gp_range", "--gp-range", "range", False),
                                       ("gp_sigma", "--gp-sigma", "sigma", False), ("noise", "--noise", "noise", True)):
@@ -402,7 +411,6 @@ def uncertainty_opts(args, methods=STD_METHODS):
 
 def std_names(args, names):
     """The point fields a run adds to ``names``: ``<name>_std`` for each (with a std) and ``trusted`` (--trust)."""
-    from ..results import TRUSTED
 
     extra = [f"{name}_std" for name in names] if wants_std(args) else []
     return extra + ([TRUSTED] if getattr(args, "trust", None) is not None else [])
@@ -410,7 +418,6 @@ def std_names(args, names):
 
 def print_uncertainty(report, std, trusted, point_ndim=1):
     """The summary lines of the std (--method gp, --uncertainty) and of --trust."""
-    from ..report import uncertainty_lines
 
     for line in uncertainty_lines(report, std, trusted, point_ndim):
         print(line)

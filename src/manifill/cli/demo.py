@@ -1,5 +1,6 @@
 """``manifill demo``: the built-in example."""
 
+from ..demo import run_demo
 from .options import output_args
 
 __all__ = ["add_parser", "run"]
@@ -17,8 +18,6 @@ def add_parser(sub):
 
 def run(args):
     """``manifill demo``."""
-    from ..demo import run_demo
-
     report = run_demo(args.output)
     print(report["text"])
     return 0

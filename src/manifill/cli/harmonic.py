@@ -2,6 +2,7 @@
 
 import time
 
+from ..io import VALUE_FORMATS, write_values
 from ..results import SAMPLE_MASK, sample_mask
 from ..surface.harmonic import HarmonicSolver
 from .common import check_names, load, pictures, print_ranges, surface_outputs, write_surface
@@ -24,8 +25,6 @@ def add_parser(sub):
 
 def run(args):
     """``manifill harmonic MESH SAMPLES -o OUT``."""
-    from ..io import VALUE_FORMATS, write_values
-
     out = surface_outputs(args)
     ext = out.suffix.lower()
     V, F, S = load(args)
@@ -35,7 +34,7 @@ def run(args):
     X = solver.solve(S.vals)
     seconds = time.perf_counter() - t0
     if ext in VALUE_FORMATS:
-        write_values(out, X, S.names)
+        write_values(out, X, names=S.names)
     else:
         fields = {name: X[:, j] for j, name in enumerate(S.names)}
         write_surface(out, V, F, {**fields, SAMPLE_MASK: sample_mask(len(V), S.idx)})

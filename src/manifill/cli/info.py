@@ -2,6 +2,8 @@
 
 import json
 
+from ..io import read_mesh
+from ..mesh.topology import mesh_info
 from .options import MESH_HELP
 
 __all__ = ["add_parser", "run"]
@@ -20,9 +22,6 @@ def add_parser(sub):
 
 def run(args):
     """``manifill info MESH``."""
-    from ..io import read_mesh
-    from ..mesh.topology import mesh_info
-
     V, F = read_mesh(args.mesh)
     info = mesh_info(V, F)
     if args.json:

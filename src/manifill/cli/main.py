@@ -6,6 +6,11 @@ field from the samples alone), ``volume`` (Steps 1-8 inside a solid), ``batch`` 
 cluster), ``demo`` (the built-in example). Bad input ends with exit code 2 and one line
 ``manifill: error: ...`` on standard error, never a traceback; nothing is left
 half-written.
+
+``batch`` is defined above the command line, in :mod:`manifill.cluster.command` (a batch runs
+command lines): :mod:`manifill.cluster` adds it with :func:`add_command` when imported, and
+``import manifill`` (which any import of ``manifill.cli`` runs first) imports it. This module
+never imports the cluster layer.
 """
 
 import argparse
@@ -16,15 +21,32 @@ import signal
 import sys
 import threading
 
-from .. import __version__
+from ..version import __version__
 from ..errors import ManifillError
-from . import batch, check, cv, demo, harmonic, info, reconstruct, volume
+from . import check, cv, demo, harmonic, info, reconstruct, volume
 from .common import err
 
-__all__ = ["main", "build_parser", "COMMANDS"]
+__all__ = ["main", "build_parser", "add_command", "COMMANDS"]
 
-#: one module per subcommand, in the order of the help
-COMMANDS = (info, harmonic, check, reconstruct, cv, volume, batch, demo)
+#: one module per subcommand, in the order of the help; a layer above adds its own (:func:`add_command`)
+COMMANDS = [info, harmonic, check, reconstruct, cv, volume, demo]
+
+
+def add_command(module, before=None):
+    """Add a subcommand defined above the command line (``batch``, by :mod:`manifill.cluster`).
+
+    Parameters
+    ----------
+    module : module
+        Has ``add_parser(sub)``, which adds the subcommand's parser and sets its ``func``.
+    before : str, optional
+        The name of the subcommand module it comes before in the help (last when None or absent).
+        Adding a module again changes nothing.
+    """
+    if module in COMMANDS:
+        return
+    names = [m.__name__.rsplit(".", 1)[-1] for m in COMMANDS]
+    COMMANDS.insert(names.index(before) if before in names else len(COMMANDS), module)
 
 
 class _Parser(argparse.ArgumentParser):

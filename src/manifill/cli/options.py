@@ -5,11 +5,14 @@ from ..mesh.graph import DISTANCES
 from ..surface.harmonic import ON_EMPTY
 from ..mesh.laplacian import WEIGHTS
 from ..surface.partition import PARTITIONS
-from ..surface.reconstruct import METHODS
+from ..surface.methods.registry import method_of, names
 from ..linalg.backends import SOLVERS
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
            "check_workers", "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
+
+#: What --method takes: every method of the registry, then its presets (``default``).
+METHODS = names()
 
 MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
 
@@ -102,8 +105,7 @@ def pipeline_args(s, *, method_help="default: the measured default, gvf-harmonic
                                      "--bounds samples (pass --method gvf-harmonic for the paper's pipeline alone)"):
     """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
     s.add_argument("--method", choices=METHODS, default=None,
-                   help=f"{method_help}; rbf: the thin-plate spline in space; auto: the candidate with the lowest "
-                        f"5-fold cross-validation error (see 'manifill cv')")
+                   help=f"{method_help}; " + "; ".join(f"{name}: {method_of(name).summary}" for name in names(False)))
     s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
     s.add_argument("--curve-values", choices=CURVE_VALUES, default=None,
                    help="default: monotone for the default method, hermite for --method gvf-harmonic")

@@ -4,11 +4,14 @@
 from pathlib import Path
 
 from ..errors import OptionError
-
-from ..surface.energy_fill import ENERGY_METHODS
-from ..surface.reconstruct import STEPS
+from ..io import VALUE_FORMATS, write_values
+from ..mesh.subdivide import check_subdivide, subdivide
+from ..report import value_columns
+from ..surface.methods.registry import configure, method_of
+from ..surface.reconstruct import reconstruct
 from .common import (bounds_arg, check_names, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
-                     print_uncertainty, std_names, surface_outputs, uncertainty_opts, wants_std, write_surface)
+                     print_uncertainty, std_names, surface_outputs, uncertainty_opts, write_surface)
+from .series import SERIES_OUTPUTS, is_series, run_series
 from .options import (energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args, series_args,
                       uncertainty_args)
 
@@ -35,26 +38,26 @@ def add_parser(sub):
     s.set_defaults(func=run)
 
 
+def options_of(args):
+    """The reconstruction's options from the command line, built and checked once (an Options)."""
+    return configure(method=args.method, partition=args.partition, weights=args.weights, distance=args.distance,
+                     levels=levels(args.levels), curve_values=args.curve_values, solver=args.solver,
+                     on_empty=args.on_empty, duplicates=args.duplicates, bounds=bounds_arg(args.bounds),
+                     smoothing=smoothing_arg(args.smoothing), check=True if getattr(args, "check", False) else None,
+                     **uncertainty_opts(args))
+
+
 def run(args):
     """``manifill reconstruct MESH SAMPLES -o OUT``."""
-    from ..io import VALUE_FORMATS, write_values
-    from ..surface.reconstruct import reconstruct
-
-    from .series import SERIES_OUTPUTS, is_series, run_series
-
     out = surface_outputs(args, extra=SERIES_OUTPUTS)
-    std_opts = uncertainty_opts(args)
-    # the energy methods and gp constrain positions exactly where they are, the others use the nearest vertices
-    exact = args.method in ENERGY_METHODS or args.method == "gp"
+    options = options_of(args)
+    # the methods that take points constrain positions exactly where they are, the others use the nearest vertices
+    exact = method_of(options.method).at_points and not method_of(options.method).delegates
     if is_series(args.samples, out, args.chunk):
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
                               f"(-o OUT.xdmf)")
-        options = dict(method=args.method, partition=args.partition, weights=args.weights, distance=args.distance,
-                       levels=levels(args.levels), curve_values=args.curve_values, solver=args.solver,
-                       on_empty=args.on_empty, duplicates=args.duplicates, bounds=bounds_arg(args.bounds),
-                       smoothing=smoothing_arg(args.smoothing), **std_opts)
-        return run_series(args, out, options, exact)
+        return run_series(args, out, {"options": options.replace(check=None)}, exact)
     for flag in ("workers", "scheduler"):
         if getattr(args, flag, None) is not None:
             raise OptionError(f"--{flag} runs the chunks of a time series (-o OUT.xdmf, .pvd, .h5 or .npy) on Dask "
@@ -63,47 +66,52 @@ def run(args):
     V, F, S = load(args, keep_points=exact)
     check_names(args, S, out)
     if args.subdivide:
-        from ..mesh.subdivide import check_subdivide
-
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
-    steps = STEPS[args.method or "gvf-harmonic"] + (("uncertainty",) if wants_std(args) and args.method != "gp"
-                                                     else ())
+    method = method_of(options.method)
+    steps = method.steps(options) + (("uncertainty",) if options.uq.uncertainty and not method.gp_mean else ())
     bar = step_bar(args, ("graph",) + steps)
     try:
         where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
                                                                              max_distance=args.max_snap)
-        r = reconstruct(V, F, **where, method=args.method, partition=args.partition, weights=args.weights,
-                        distance=args.distance, levels=levels(args.levels), curve_values=args.curve_values,
-                        solver=args.solver, on_empty=args.on_empty, duplicates=args.duplicates,
-                        bounds=bounds_arg(args.bounds), smoothing=smoothing_arg(args.smoothing), progress=bar,
-                        check=True if args.check else None, **std_opts)
+        r = reconstruct(V, F, **where, options=options, progress=bar)
     finally:
         bar.close()
     X = r.fields()
     data = r.point_data(S.names)
     added = {key: data[key] for key in std_names(args, S.names) if key in data}
-    if args.subdivide:
-        from ..mesh.subdivide import subdivide
+    _write(args, out, V, F, X, S, data, added)
+    _summary(args, r, V, S)
+    print_uncertainty(r.report, r.std, r.trusted)
+    print_time(args, r.report["seconds"])
+    print_ranges(X, S, out)
+    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}", extra=added)
+    return 0
 
+
+def _write(args, out, V, F, X, S, data, added):
+    """Write the result as the output's format asks (subdivided first with --subdivide)."""
+    if args.subdivide:
         V2, F2, X2 = subdivide(V, F, X, levels=args.subdivide)
         if out.suffix.lower() in VALUE_FORMATS:
-            write_values(out, X2, S.names)
+            write_values(out, X2, names=S.names)
         else:
             write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
         print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
               f"the masks{' and the std' if added else ''} are not written)")
     elif out.suffix.lower() == ".csv" and added:  # the std and trusted columns after the values
-        from ..report import value_columns
-
         columns = list(S.names) + list(added)
-        write_values(out, value_columns(data, columns), columns)
+        write_values(out, value_columns(data, columns), names=columns)
     elif out.suffix.lower() in VALUE_FORMATS:
-        write_values(out, X, S.names)
+        write_values(out, X, names=S.names)
         if added:
             print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .csv or "
                   f".vtu for them)")
     else:
         write_surface(out, V, F, data)
+
+
+def _summary(args, r, V, S):
+    """The lines that say what ran: samples, Step 1, the method, the partition, the fill."""
     rep = r.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
     if "points" in rep and rep["points"]["located"] != "nearest vertex":
@@ -117,34 +125,33 @@ def run(args):
         print(f"step 1 ({name}): {c['levels']} levels, Lipschitz {c['lipschitz_hops']:.4g} per hop; "
               f"gradual variation {state}")
     if rep.get("default"):
-        print(f"method: the default (gvf-harmonic, {rep.get('curve_values')} curve values, bounded by the samples' "
-              f"range; --method gvf-harmonic for the paper's pipeline alone)")
+        print(f"method: the default ({rep['method']}, {rep.get('curve_values')} curve values, bounded by the samples' "
+              f"range; --method {rep['method']} for the paper's pipeline alone)")
     if "partition" in rep:
         pr = rep["partition"]
         print(f"steps 2-3: {pr['method']} partition, {pr['curves']} curves through {pr['curve_vertices']:,} "
               f"vertices, {pr['patches']} patches (largest {max(pr['patch_sizes'] or [0]):,})")
     if "harmonic" in rep:
-        h = rep["harmonic"]
-        its = h.get("iterations")
-        m = rep["method"]
-        what = "steps 5-6: harmonic fill" if m == "gvf-harmonic" else f"{m} fill (samples fixed)"
-        extra = ""
-        if "bounds" in h:
-            at = sum(h["bounds"]["active_lo"]) + sum(h["bounds"]["active_hi"])
-            extra += f", bounded ({at:,} vertices at a bound)"
-        if "smoothing" in h:
-            lams = h["smoothing"]["lambda"]
-            lam = ", ".join(f"{float(x):.3g}" for x in (lams if hasattr(lams, "__len__") else [lams]))
-            extra += f", smoothing lambda {lam}"
-        print(f"{what}, weights={h.get('weights', args.weights)}, solver={h.get('solver', 'direct')}"
-              + (f", {', '.join(map(str, its))} iterations" if its else "") + extra)
+        _fill_line(args, rep)
     if "rbf" in rep:
         print(f"rbf: thin-plate spline through the sample positions ({rep['rbf']['dims']}-D)")
     if "auto" in rep:  # method='auto': the cross-validation table and the choice
         print(rep["auto"]["table"])
         print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
-    print_uncertainty(rep, r.std, r.trusted)
-    print_time(args, rep["seconds"])
-    print_ranges(X, S, out)
-    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}", extra=added)
-    return 0
+
+
+def _fill_line(args, rep):
+    h = rep["harmonic"]
+    its = h.get("iterations")
+    m = rep["method"]
+    what = "steps 5-6: harmonic fill" if method_of(m).partitions else f"{m} fill (samples fixed)"
+    extra = ""
+    if "bounds" in h:
+        at = sum(h["bounds"]["active_lo"]) + sum(h["bounds"]["active_hi"])
+        extra += f", bounded ({at:,} vertices at a bound)"
+    if "smoothing" in h:
+        lams = h["smoothing"]["lambda"]
+        lam = ", ".join(f"{float(x):.3g}" for x in (lams if hasattr(lams, "__len__") else [lams]))
+        extra += f", smoothing lambda {lam}"
+    print(f"{what}, weights={h.get('weights', args.weights)}, solver={h.get('solver', 'direct')}"
+          + (f", {', '.join(map(str, its))} iterations" if its else "") + extra)

@@ -11,7 +11,17 @@ here in time order: the same file.
 """
 
 import glob
+import zipfile
 from pathlib import Path
+
+from ..errors import OptionError
+from ..io import read_mesh_file
+from ..io.distributed import dask_client
+from ..io.series import TIME_COLUMNS, read_series
+from ..io.stream import chunk_size, reconstruct_series
+from ..progress import StepBar
+from .common import print_time
+from .options import check_workers
 
 __all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
 
@@ -22,10 +32,6 @@ SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5")
 def is_series(samples, out, chunk=None):
     """Whether ``reconstruct`` reads ``samples`` as a time series: a series output, ``--chunk``, a folder or a
     glob pattern of per-time files, an NPZ with ``times``, or a CSV whose first value column is ``time``."""
-    import zipfile
-
-    from ..io.series import TIME_COLUMNS
-
     p = Path(samples)
     if Path(out).suffix.lower() in SERIES_OUTPUTS or p.is_dir() or chunk is not None:
         return True
@@ -47,15 +53,6 @@ def is_series(samples, out, chunk=None):
 
 def run_series(args, out, options, exact):
     """Read the series, then :func:`manifill.io.stream.reconstruct_series`; print a summary."""
-    from ..errors import OptionError
-    from ..io import read_mesh_file
-    from ..io.distributed import dask_client
-    from ..io.series import read_series
-    from ..io.stream import chunk_size, reconstruct_series
-    from ..progress import StepBar
-    from .common import print_time
-    from .options import check_workers
-
     for flag in ("render", "html", "subdivide", "clean"):
         if getattr(args, flag, None):
             raise OptionError(f"--{flag} is not available for a time series; leave it out (open the series in "
@@ -80,16 +77,16 @@ def run_series(args, out, options, exact):
                                       **options)
     finally:
         bar.close()
-    rep = done["report"]
+    rep = done.report
     if rep.get("check"):
         bad = sum(not c["holds"] for c in rep["check"])
-        which = "the last step" if "map" in done["seconds"] else "the last chunk"
+        which = "the last step" if done.linear_map else "the last chunk"
         print(f"step 1 ({which}): gradual variation fails at {bad} of its steps" if bad else
               f"step 1 ({which}): gradual variation holds")
     print(f"method: {rep['method']}" + (" (the default)" if rep.get("default") else "")
           + (f", solver={rep['harmonic'].get('solver')}" if "harmonic" in rep else "")
-          + (f"; linear: {len(where['vals']):,} solves for its map, one product per chunk" if "map" in done["seconds"]
+          + (f"; linear: {len(where['vals']):,} solves for its map, one product per chunk" if done.linear_map
              else ""))
-    print_time(args, done["seconds"])
+    print_time(args, done.seconds)
     print(f"wrote {out} ({T:,} steps)")
     return 0

@@ -2,7 +2,17 @@
 
 from pathlib import Path
 
-from ..errors import SampleError
+from ..errors import ReadError, SampleError, WriteError
+from ..io import (GRID_FORMATS, TET_FORMATS, has_tets, read_mask, read_mesh_file, read_samples, read_tets, write_tets,
+                  write_vti)
+from ..report import value_ranges
+from ..solid.boundary import digital_surface
+from ..solid import reconstruct_volume as rv  # called through the module: a test may replace an entry point
+from ..solid.tets import boundary_faces, boundary_vertices
+from ..surface.methods.registry import method_of
+from ..viz.render import render, render_slices
+from .common import (check_names, check_outputs, chosen_field, levels, print_time, print_uncertainty, std_names,
+                     step_bar, uncertainty_opts)
 from .options import SOLVERS, WEIGHTS, output_args, pipeline_args, uncertainty_args
 
 __all__ = ["add_parser", "run"]
@@ -29,7 +39,7 @@ def add_parser(sub):
                    help="solver of the inside: multigrid (voxels only), amg or direct (default: auto = multigrid "
                         "for voxels; for tets direct up to a size, then amg)")
     s.add_argument("--fill-weights", choices=("cotan", "uniform"), default="cotan",
-                   help="tetrahedral weights (default: cotan)")
+                   help="weights of the inside's tetrahedral Laplacian (tets only; default: cotan)")
     s.add_argument("--allow-open", action="store_true", help="voxelise an open surface by winding numbers")
     s.add_argument("--spacing", default=None, help="voxel size of a mask, e.g. 1,1,2.5 (default: from .vti, or 1)")
     s.add_argument("--origin", default=None, help="centre of voxel (0,0,0) of a mask (default: from .vti, or 0)")
@@ -67,11 +77,6 @@ def _triple(text, what):
 
 def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
-    from ..surface.reconstruct import STEPS
-    from .common import check_outputs, levels, step_bar, uncertainty_opts
-    from ..errors import ReadError, WriteError
-    from ..io import GRID_FORMATS, TET_FORMATS, has_tets
-
     src = Path(args.mesh).suffix.lower()
     if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
         raise ReadError(f"{args.mesh}: no such file")  # before its kind (and the output's) is guessed from it
@@ -83,16 +88,13 @@ def run(args):
                          f"the output name")
     out, _ = check_outputs([("-o", args.output, allowed), ("--render", args.render, (".png",))],
                            [args.mesh, args.samples])
-    std_opts = uncertainty_opts(args, methods=("gp",))
+    std_opts = uncertainty_opts(args, in_solid=True)
     # the mask's digital surface is built without a "graph" step; a surface is first voxelised or tetrahedralised
     solid = {"mask": (), "tets": ()}.get(kind, ("voxelize",) if form == "voxels" else ("tetrahedralize",))
-    steps = ("graph",) * (kind != "mask") + STEPS[args.method or "gvf-harmonic"] + solid + ("fill",)
-    bar = step_bar(args, () if args.method == "gp" else steps)  # the solid's gp has no surface steps
-    surface_opts = dict(method=args.method, partition=args.partition, distance=args.distance,
-                        levels=levels(args.levels), curve_values=args.curve_values, duplicates=args.duplicates,
-                        solver=args.solver, progress=bar, **std_opts)
-    if args.weights is not None:  # else the library's default for the kind of solid
-        surface_opts["weights"] = args.weights
+    method = method_of(args.method)
+    steps = ("graph",) * (kind != "mask") + method.step_names + solid + ("fill",)
+    bar = step_bar(args, () if method.gp_mean else steps)  # the solid's gp has no surface steps
+    surface_opts = _surface_options(args, bar, std_opts)
     try:
         r, S, form = _volume_run(args, kind, form, surface_opts)
     finally:
@@ -100,11 +102,23 @@ def run(args):
     return _volume_write(args, out, out.suffix.lower(), r, S, form)
 
 
+#: The surface step's flags at their defaults. With --method gp (no surface step in a solid) only those set
+#: otherwise reach the library, which refuses them; --weights None is the library's default for the solid.
+_SURFACE_DEFAULTS = {"partition": "delaunay", "distance": "length", "levels": None, "curve_values": None,
+                     "solver": "auto", "weights": None}
+
+
+def _surface_options(args, bar, std_opts):
+    """The keywords of the surface step (Steps 1-6), as ``manifill.reconstruct`` takes them."""
+    opts = dict(partition=args.partition, distance=args.distance, levels=levels(args.levels),
+                curve_values=args.curve_values, solver=args.solver, weights=args.weights)
+    gp = method_of(args.method).gp_mean
+    given = {k: v for k, v in opts.items() if v is not None and (not gp or v != _SURFACE_DEFAULTS[k])}
+    return {"method": args.method, **given, "duplicates": args.duplicates, "progress": bar, **std_opts}
+
+
 def _check_samples(args, S):
     """What the samples' names and count allow for the output, before the work."""
-    from ..errors import WriteError
-    from .common import check_names
-
     check_names(args, S, args.output)
     if Path(args.output).suffix.lower() == ".npy" and len(S.names) > 1:
         raise WriteError(f"{Path(args.output).name}: .npy holds one field but the samples have {len(S.names)} "
@@ -113,20 +127,16 @@ def _check_samples(args, S):
 
 def _volume_run(args, kind, form, surface_opts):
     """Read the solid and the samples, run Steps 1-8; print what was read."""
-    from ..io import read_mask, read_mesh_file, read_samples, read_tets
-    from ..solid.boundary import digital_surface
-    from ..solid.reconstruct_volume import reconstruct_volume, reconstruct_volume_mask, reconstruct_volume_tets
-    from ..solid.tets import boundary_vertices
-
     if kind == "mask":
         mask, h, o = read_mask(args.mesh, field=args.mask_field)
         h = _triple(args.spacing, "spacing") if args.spacing else (h if h is not None else [1.0, 1.0, 1.0])
         o = _triple(args.origin, "origin") if args.origin else (o if o is not None else [0.0, 0.0, 0.0])
-        voxels, P, _, _ = digital_surface(mask, h, o, args.connectivity)
+        voxels, P, _, _ = digital_surface(mask, spacing=h, origin=o, connectivity=args.connectivity)
         S = read_samples(args.samples, P, duplicates=args.duplicates, max_distance=args.max_snap)
         _check_samples(args, S)
-        r = reconstruct_volume_mask(mask, voxels[S.idx], S.vals, spacing=h, origin=o, connectivity=args.connectivity,
-                                    fill_solver=args.fill_solver, **surface_opts)
+        r = rv.reconstruct_volume_mask(mask, voxels[S.idx], S.vals, spacing=h, origin=o,
+                                       connectivity=args.connectivity, fill_solver=args.fill_solver,
+                                       fill_weights=args.fill_weights, **surface_opts)
         print(f"voxel mask {mask.shape}, {int(mask.sum()):,} voxels; digital surface {len(voxels):,} voxels")
     elif kind == "tets":
         V, T = read_tets(args.mesh)
@@ -134,8 +144,8 @@ def _volume_run(args, kind, form, surface_opts):
         # positions snap to the boundary, not to inner vertices
         S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap, snap_to=on_d)
         _check_samples(args, S)
-        r = reconstruct_volume_tets(V, T, S.idx, S.vals, fill_weights=args.fill_weights, fill_solver=args.fill_solver,
-                                    **surface_opts)
+        r = rv.reconstruct_volume_tets(V, T, S.idx, S.vals, fill_solver=args.fill_solver,
+                                       fill_weights=args.fill_weights, **surface_opts)
         print(f"tetrahedral mesh: {len(V):,} vertices, {len(T):,} tets, {on_d.size:,} on the boundary")
     else:
         mesh = read_mesh_file(args.mesh)
@@ -143,26 +153,21 @@ def _volume_run(args, kind, form, surface_opts):
         S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
                          vertex_numbering=mesh.vertex_numbering)
         _check_samples(args, S)
-        r = reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,
-                               connectivity=args.connectivity, max_volume=args.max_volume,
-                               fill_solver=args.fill_solver, fill_weights=args.fill_weights,
-                               allow_open=args.allow_open, **surface_opts)
+        r = rv.reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,
+                                  connectivity=args.connectivity, max_volume=args.max_volume,
+                                  fill_solver=args.fill_solver, fill_weights=args.fill_weights,
+                                  allow_open=args.allow_open, **surface_opts)
         print(f"surface: {len(V):,} vertices, {len(F):,} faces")
     return r, S, form
 
 
 def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
-    from .common import chosen_field, print_time, print_uncertainty, std_names
-    from ..io import write_tets, write_vti
-    from ..report import value_ranges
-    from ..solid.tets import boundary_faces
-
     X = r.fields()
     data = r.point_data(S.names)
     if form == "voxels":
         # a .npy holds the one field alone
-        write_vti(out, data if ext == ".vti" else {S.names[0]: X[..., 0]}, r.spacing, r.origin)
+        write_vti(out, data if ext == ".vti" else {S.names[0]: X[..., 0]}, spacing=r.spacing, origin=r.origin)
         added = [k for k in std_names(args, S.names) if k in data]
         if ext != ".vti" and added:
             print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .vti for "
@@ -183,12 +188,8 @@ def _volume_write(args, out, ext, r, S, form):
     field = chosen_field(args, S.names)
     if getattr(args, "render", None):
         if form == "voxels":
-            from ..viz.render import render_slices
-
             render_slices(data[field], r.spacing, r.origin, args.render, name=field)
         else:
-            from ..viz.render import render
-
             render(r.TV, boundary_faces(r.TT), data[field], args.render, name=field, title="boundary of the solid")
         print(f"rendered {args.render} ({field})")
     (lo, hi), (vlo, vhi) = value_ranges(S.vals), value_ranges(X, r.point_ndim)

@@ -10,24 +10,17 @@ row in the batch's summary CSV; a re-run skips the jobs whose inputs, options an
 unchanged. manifill schedules nothing itself: Dask does, and retries a job whose worker died.
 
 ``dask`` and ``distributed`` are the optional ``[batch]`` extra, imported when a batch runs.
+
+The layer sits above the command line and uses it (a job is a command line): the ``batch``
+subcommand is :mod:`manifill.cluster.command`, added here to the command line's subcommands
+(:func:`manifill.cli.main.add_command`); :mod:`manifill.cli` never imports this layer.
 """
+
+from ..cli.main import add_command
+from ..io.distributed import EXTRA
+from . import command
+from .run import BatchResult, batch, need_distributed
 
 __all__ = ["batch", "BatchResult", "need_distributed", "EXTRA"]
 
-from ..io.distributed import EXTRA
-
-
-def need_distributed():
-    """``distributed``, imported; manifill's own error naming the ``[batch]`` extra when it is missing.
-
-    Raises
-    ------
-    OptionError
-        ``dask.distributed`` is not installed.
-    """
-    from ..io.distributed import need_distributed as need
-
-    return need("a batch on a Dask cluster")
-
-
-from .run import BatchResult, batch  # noqa: E402 - run.py imports need_distributed from here
+add_command(command, before="demo")  # `manifill batch`: the command line never imports this layer

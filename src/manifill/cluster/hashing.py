@@ -4,12 +4,15 @@ A re-run of a batch compares a job's :func:`job_hash` with the one its summary r
 equal, and the outputs there, the job is skipped.
 """
 
+import glob
 import hashlib
 import json
 import os
 from pathlib import Path
 
+from .. import version
 from ..errors import ReadError
+from ..io.samples import SAMPLE_FORMATS
 from .manifest import with_paths
 
 __all__ = ["inputs", "job_hash"]
@@ -31,10 +34,6 @@ def inputs(job):
     ReadError
         The mesh or the samples do not exist (a pattern: match no file).
     """
-    import glob
-
-    from ..io.samples import SAMPLE_FORMATS
-
     mesh, samples = Path(job.mesh), Path(job.samples)
     if not mesh.is_file():
         raise ReadError(f"job {job.id!r}: {mesh}: no such mesh file; check the path")
@@ -69,14 +68,12 @@ def job_hash(job):
     ReadError
         An input is missing (as :func:`inputs`).
     """
-    from .. import __version__
-
     def resolved(p):
         return str(Path(os.path.expanduser(str(p))).resolve())
 
     argv = [job.command, resolved(job.mesh), resolved(job.samples), "-o", resolved(job.output),
             *with_paths(job.command, job.options, resolved)]
-    h = hashlib.sha256(json.dumps(["manifill", __version__, argv]).encode())
+    h = hashlib.sha256(json.dumps(["manifill", version.__version__, argv]).encode())
     for path in inputs(job):
         one = hashlib.sha256()
         with open(path, "rb") as fh:

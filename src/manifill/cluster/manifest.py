@@ -47,6 +47,7 @@ import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..cli.main import build_parser
 from ..errors import OptionError, ReadError
 from .readers import FIELDS, REQUIRED, csv_records, read_text, toml_records
 
@@ -143,8 +144,6 @@ class _Spec:
 
 @functools.lru_cache(maxsize=None)
 def _spec(command):
-    from ..cli.main import build_parser
-
     if command not in JOB_COMMANDS:
         raise OptionError(f"command {command!r} is not a batch command; use one of {', '.join(JOB_COMMANDS)}")
     parser = build_parser()

@@ -8,7 +8,11 @@ checks them. Only the file's own shape is checked here: a header, its names, the
 import csv
 import difflib
 import io
-import tomllib
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser as the tomli package (the [batch] extra has it)
+    import tomli as tomllib
 
 from ..errors import OptionError, ReadError
 

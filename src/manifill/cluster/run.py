@@ -25,15 +25,21 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..cli.main import main
 from ..errors import ManifillError, OptionError
+from ..io import read_mesh_file
 from ..io.distributed import SCHEDULER_ENV, dask_client
+from ..io.distributed import need_distributed as need
 from ..io.files import KILL_ONCE_ENV, atomic_path
 from ..io.registry import reading_once
+from ..io.samples import read_sample_table
+from ..io.stream import chunk_size
 from ..memory import LIMIT_ENV, human
-from . import need_distributed
+from .hashing import job_hash
+from .manifest import jobs_from
 
-__all__ = ["batch", "BatchResult", "run_job", "job_memory", "remove_stale", "read_summary", "SUMMARY_COLUMNS",
-           "SCHEDULER_ENV", "SUMMARY_SECONDS", "BYTES_PER_VERTEX", "BYTES_PER_VALUE"]
+__all__ = ["batch", "BatchResult", "need_distributed", "run_job", "job_memory", "remove_stale", "read_summary",
+           "SUMMARY_COLUMNS", "SCHEDULER_ENV", "SUMMARY_SECONDS", "BYTES_PER_VERTEX", "BYTES_PER_VALUE"]
 
 #: The summary's columns, one row per job in the manifest's order.
 SUMMARY_COLUMNS = ("id", "command", "status", "seconds", "peak_mb", "worker", "output", "hash", "error")
@@ -45,6 +51,17 @@ _SERIES = (".xdmf", ".pvd", ".h5", ".hdf5")
 _SAMPLE_SECONDS = 0.02
 #: The summary is rewritten at most this often while jobs end (and always after the last one).
 SUMMARY_SECONDS = 1.0
+
+
+def need_distributed():
+    """``distributed``, imported; manifill's own error naming the ``[batch]`` extra when it is missing.
+
+    Raises
+    ------
+    OptionError
+        ``dask.distributed`` is not installed.
+    """
+    return need("a batch on a Dask cluster")
 
 
 @dataclass
@@ -120,9 +137,6 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
         local-cluster options given with an existing cluster; a bad manifest (as
         :func:`~manifill.cluster.manifest.read_manifest`).
     """
-    from .hashing import job_hash
-    from .manifest import jobs_from
-
     t0 = time.perf_counter()
     job_list = jobs_from(jobs)
     path = _summary_path(jobs, summary)
@@ -281,10 +295,6 @@ def job_memory(job):
     """
     if job.command != "reconstruct":
         return None
-    from ..io import read_mesh_file
-    from ..io.samples import read_sample_table
-    from ..io.stream import chunk_size
-
     n = len(read_mesh_file(job.mesh).V)
     samples = Path(job.samples)
     p = 1
@@ -357,8 +367,6 @@ def run_job(job, digest):
 
 
 def _run_job(job, digest):
-    from ..cli.main import main
-
     t0 = time.perf_counter()
     address, limit = _worker()
     for out in job.outputs():

@@ -14,9 +14,12 @@ module level (:func:`need_distributed`).
 """
 
 import contextlib
+import logging
 import os
 import threading
 import time
+
+from ..errors import OptionError
 
 __all__ = ["IN_FLIGHT", "EXTRA", "SCHEDULER_ENV", "need_distributed", "local_cluster", "dask_client", "ordered_map",
            "one_at_a_time"]
@@ -42,8 +45,6 @@ def need_distributed(what="this"):
     OptionError
         ``dask.distributed`` is not installed.
     """
-    from ..errors import OptionError
-
     try:
         import distributed
     except ImportError:
@@ -66,8 +67,6 @@ def local_cluster(workers, memory_limit="auto", what="this"):
     OptionError
         ``dask.distributed`` is not installed (the ``[batch]`` extra).
     """
-    import logging
-
     distributed = need_distributed(what)
     import dask
 
@@ -104,8 +103,6 @@ def dask_client(scheduler=None, workers=None, memory_limit=None, *, local=True, 
         dask/distributed missing; a scheduler address with ``workers`` or ``memory_limit``; no
         scheduler answering at the address; ``workers`` not a whole number >= 1.
     """
-    from ..errors import OptionError
-
     if scheduler is not None and not isinstance(scheduler, str):
         yield scheduler
         return

@@ -12,6 +12,7 @@ the bytes the file has before anything is allocated.
 import io
 import logging
 import os
+import signal
 import traceback
 import warnings
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
@@ -226,8 +227,6 @@ def kill_once_for_tests():
     marker = os.environ.get(KILL_ONCE_ENV)
     if not marker or os.path.exists(marker):
         return
-    import signal
-
     with open(marker, "w") as fh:
         fh.write(f"killed process {os.getpid()}\n")
     os.kill(os.getpid(), signal.SIGKILL)

@@ -11,12 +11,15 @@ each). Every per-vertex array can be given as samples: its finite entries are
 the samples.
 """
 
+import gzip
+import os
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import ReadError
-from .files import reading
+from .files import check_count, reading
 
 __all__ = ["FREESURFER_SURFACE", "FREESURFER_MORPH", "sniff", "read_gifti", "read_freesurfer_surface",
            "read_vertex_data", "read_label"]
@@ -81,8 +84,6 @@ def _gifti_arrays(path):
 
 def _check_gifti(path):
     """Refuse a DataArray Dimensionality beyond GIfTI's 6: nibabel counts up to it looking for Dim attributes."""
-    import xml.etree.ElementTree as ET
-
     for _, elem in ET.iterparse(str(path), events=("start",)):
         if elem.tag != "DataArray":
             continue
@@ -175,8 +176,6 @@ def read_freesurfer_surface(path):
             fh.readline()
             fh.readline()  # the creator line and a blank line, then two big-endian int32 counts
             counts = np.frombuffer(fh.read(8), dtype=">i4")
-        from .files import check_count
-
         if counts.size == 2:
             check_count(int(counts[0]), path, "vertices", bytes_each=12)
             check_count(int(counts[1]), path, "triangles", bytes_each=12)
@@ -240,8 +239,6 @@ def read_vertex_data(path, n):
             with open(path, "rb") as fh:
                 head = fh.read(15)
             if head[:3] == FREESURFER_MORPH and len(head) == 15:
-                from .files import check_count
-
                 check_count(int(np.frombuffer(head[3:7], ">i4")[0]), path, "values", bytes_each=4, start=15)
             values = np.asarray(nib.freesurfer.read_morph_data(str(path)), dtype=np.float64)
         if values.ndim != 1 or len(values) != n:
@@ -262,9 +259,6 @@ _GZIP_RATIO = 1032  # deflate never expands data more than this
 
 def _check_mgh(path, compressed):
     """Refuse MGH dimensions that the file cannot hold: nibabel allocates for them before reading."""
-    import gzip
-    import os
-
     with (gzip.open if compressed else open)(path, "rb") as fh:
         head = fh.read(24)
     if len(head) < 24:

@@ -24,9 +24,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ManifillError, ReadError, WriteError
+from ..mesh.objects import mesh_arrays
+from ..validate import as_mesh
 from .field_names import stored_names
 from .files import check_input_file, no_triangles
 from .meshio_files import read_meshio, write_meshio
+from .neuro import read_freesurfer_surface, read_gifti, sniff
+from .vtklegacy_read import read_legacy
+from .vtklegacy_write import write_legacy
+from .vtkxml_read import read_polydata
+from .vtkxml_write import write_polydata, write_unstructured
 
 __all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh", "read_mesh_file",
            "reading_once",
@@ -126,8 +133,6 @@ def mesh_format(path, *, writing=False):
                              f"{', '.join(e for e, f in MESH_FORMATS.items() if f.write)}")
         return fmt
     if fmt is None:
-        from .neuro import sniff
-
         if Path(path).is_file() and sniff(path) == "freesurfer-surface":
             return FREESURFER
         raise ReadError(f"{Path(path).name}: cannot read '{ext or '(no extension)'}' files; use one of "
@@ -206,23 +211,15 @@ def _read_mesh_file(path, fmt):
     if fmt.reader == "meshio":
         V, F, point_data = read_meshio(path, fmt)
     elif fmt.reader == "vtkxml":
-        from .vtkxml_read import read_polydata
-
         V, F, point_data = read_polydata(path)
     elif fmt.reader == "legacy":
-        from .vtklegacy_read import read_legacy
-
         V, cells, point_data = read_legacy(path)
         F = cells.get("triangle")
         if F is None or len(F) == 0:
             no_triangles(path, sorted(k for k, c in cells.items() if len(c)))
     elif fmt.reader == "gifti":
-        from .neuro import read_gifti
-
         V, F, point_data = read_gifti(path)
     else:
-        from .neuro import read_freesurfer_surface
-
         V, F = read_freesurfer_surface(path)
         point_data = {}
     V = np.asarray(V, dtype=np.float64)
@@ -351,9 +348,6 @@ def write_mesh(path, V, F, point_data=None):
         format can store, a missing folder, or a failure while writing
         (nothing is left behind).
     """
-    from ..mesh.objects import mesh_arrays
-    from ..validate import as_mesh
-
     fmt = mesh_format(path, writing=True)
     point_data = dict(point_data or {})
     if point_data and not fmt.fields:
@@ -403,16 +397,10 @@ def write_cells(path, V, C, point_data=None):
         else:
             out[key] = arr
     if ext == ".vtp":
-        from .vtkxml_write import write_polydata
-
         write_polydata(path, V, C, out)
     elif ext == ".vtu":
-        from .vtkxml_write import write_unstructured
-
         write_unstructured(path, V, C, out)
     elif ext == ".vtk":
-        from .vtklegacy_write import write_legacy
-
         write_legacy(path, V, kind, C, out)
     else:
         write_meshio(path, V, [(kind, C.astype(np.int32))], out, "gmsh22" if ext == ".msh" else ext[1:])

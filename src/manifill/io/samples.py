@@ -32,8 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError, ReadError, SampleError, WriteError
-from .files import atomic_path, check_input_file, reading, suffix
 from ..surface.samples import Samples, field_names
+from .files import atomic_path, check_input_file, reading, suffix
+from .neuro import MORPH_SUFFIXES, read_label, read_vertex_data, sniff
 
 __all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "SampleTable", "read_samples", "read_sample_table",
            "samples_from_table", "load_npz", "write_values"]
@@ -57,8 +58,6 @@ def _split_header(header, path):
 
 def _sample_kind(path):
     """Which reader a sample file needs: by extension, else a FreeSurfer morphometry file by magic number."""
-    from .neuro import MORPH_SUFFIXES, sniff
-
     ext = Path(path).suffix.lower()
     if ext in SAMPLE_FORMATS:
         return ext
@@ -169,8 +168,6 @@ def read_sample_table(path, n):
     elif kind == ".npy":
         kind, table, names = _read_structured_npy(path)
     elif kind == ".label":
-        from .neuro import read_label
-
         idx, vals = read_label(path)
         if len(idx) == 0:
             raise ReadError(f"{path.name}: a label file without vertices; check the file")
@@ -224,8 +221,6 @@ def samples_from_table(path, V, table, *, duplicates="error", max_distance=None,
 
 def _read_vertex_data(path, n):
     """Per-vertex data (NaN = not measured) as vertex-indexed samples."""
-    from .neuro import read_vertex_data
-
     values, names = read_vertex_data(path, n)
     known = np.isfinite(values)
     rows = known.all(axis=1)
@@ -371,7 +366,7 @@ def _read_structured_npy(path):
     return kind, table, header[ncoord:]
 
 
-def write_values(path, values, names=None):
+def write_values(path, values, *, names=None):
     """Write per-vertex values as CSV (``vertex,name...``) or NPY, atomically.
 
     Parameters

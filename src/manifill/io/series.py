@@ -38,6 +38,7 @@ Examples
 
 import glob
 import re
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -46,7 +47,8 @@ import numpy as np
 from ..errors import ReadError, SampleError, WriteError
 from ..surface.samples import Samples
 from .files import check_input_file, reading, suffix
-from .samples import SAMPLE_FORMATS, SampleTable, load_npz, read_sample_table, samples_from_table
+from .meshio_files import meshio_read
+from .samples import SAMPLE_FORMATS, SampleTable, load_npy, load_npz, read_sample_table, samples_from_table
 
 __all__ = ["SampleSeries", "read_series", "TIME_COLUMNS", "SERIES_FORMATS", "SeriesFormat", "need_h5py",
            "read_series_values"]
@@ -365,8 +367,6 @@ def read_series_values(path, *, name=None):
     ext = suffix(path, tuple(SERIES_FORMATS), "read")
     check_input_file(path)
     if ext == ".npy":
-        from .samples import load_npy
-
         X = load_npy(path)
         if X.ndim not in (1, 2) or X.dtype.names is not None:
             raise ReadError(f"{path.name}: an array of shape {X.shape}; a series is (n, T)")
@@ -427,10 +427,6 @@ def _read_xdmf(path, name):
 
 
 def _read_pvd(path, name):
-    import xml.etree.ElementTree as ET
-
-    from .meshio_files import meshio_read
-
     with reading(path, "PVD collection"):
         root = ET.parse(path).getroot()
         sets = [(float(d.get("timestep", "0")), d.get("file")) for d in root.iter("DataSet")]

@@ -54,6 +54,7 @@ from ..errors import WriteError
 from .field_names import check_field_names
 from .files import suffix
 from .series import SERIES_FORMATS, need_h5py
+from .vtkxml_write import write_unstructured
 
 __all__ = ["SeriesWriter", "write_series"]
 
@@ -454,8 +455,6 @@ class _Pvd:
             raise
 
     def add(self, X, times, j0):
-        from .vtkxml_write import write_unstructured
-
         w = self.w
         lines = []
         for i in range(X.shape[1]):

@@ -11,14 +11,18 @@ Writes are atomic (:func:`manifill.io.files.atomic_path`).
 """
 
 import base64  # noqa: F401  (manifill.io.solids.base64 is the module the VTI writer encodes with)
+import re
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import ReadError, WriteError
-from .files import atomic_path, suffix
+from ..errors import ManifillError, ReadError, WriteError
+from ..validate import as_tets
+from .files import atomic_path, check_count, suffix
 from .meshio_files import meshio_read
 from .registry import check_cells, write_cells
+from .samples import load_npy
+from .vtklegacy_read import read_legacy
 from .vtkxml_read import read_imagedata
 from .vtkxml_write import grid_arrays, write_imagedata
 
@@ -52,8 +56,6 @@ def read_tets(path):
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
     if ext == ".vtk":
-        from .vtklegacy_read import read_legacy
-
         V, cells, _ = read_legacy(path)
         if len(cells.get("tetra", ())) == 0:
             kinds = ", ".join(k for k, c in cells.items() if len(c)) or "none"
@@ -78,10 +80,6 @@ def _check_msh(path):
     Version 2 files are walked section by section (nodes, element blocks, node and element data); of ASCII version 4
     files the counts lines of ``$Nodes`` and ``$Elements`` are checked.
     """
-    import re
-
-    from .files import check_count
-
     data = path.read_bytes()
     fmt = re.search(rb"^\$MeshFormat[ \t\r]*\n[ \t]*([0-9.]+)[ \t]+([0-9]+)", data, re.M)
     if fmt is None:
@@ -190,9 +188,6 @@ def write_tets(path, V, T, point_data=None):
         Unknown extension, a malformed mesh, wrong field lengths or names, or a
         failure while writing (nothing is left behind).
     """
-    from ..errors import ManifillError
-    from ..validate import as_tets
-
     suffix(path, tuple(TET_FORMATS), "write")
     try:
         V, T = as_tets(V, T, allow_degenerate=True, allow_unreferenced=True)
@@ -201,7 +196,7 @@ def write_tets(path, V, T, point_data=None):
     return write_cells(path, V, T, point_data)
 
 
-def write_vti(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
+def write_vti(path, fields, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
     """Write voxel fields as VTK ImageData (``.vti``) or, for one field, as ``.npy``; atomically.
 
     Parameters
@@ -285,8 +280,6 @@ def read_mask(path, *, field=None):
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
     if ext == ".npy":
-        from .samples import load_npy
-
         arr = load_npy(path, ".npy array")  # the header checked against the file's size first
         spacing = origin = None
     else:

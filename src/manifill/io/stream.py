@@ -5,22 +5,28 @@ samples, applies it to a chunk of time steps at a time and hands each chunk to a
 :class:`~manifill.io.series_write.SeriesWriter` (``.xdmf``, ``.pvd``, ``.h5``, ``.npy``), so that
 only one chunk of ``(n, t)`` values is in memory at once. A linear reconstruction with many more
 time steps than samples (an EEG: 70 channels, 10,000 steps) goes through its dense ``(n, k)`` map
-instead: ``k`` solves once, then one matrix product per chunk (:func:`dense_map`). The file appears at the end, whole, or
-not at all (an error or Ctrl-C on the way leaves nothing). ``manifill reconstruct MESH SAMPLES -o
-OUT.xdmf`` is this function.
+instead: ``k`` solves once, then one matrix product per chunk (:func:`dense_map`). The file appears
+at the end, whole, or not at all (an error or Ctrl-C on the way leaves nothing); what was written
+is said by a :class:`SeriesResult`. ``manifill reconstruct MESH SAMPLES -o OUT.xdmf`` is this
+function.
 """
 
 import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import OptionError, SampleError
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, sample_mask
+from ..surface.methods.registry import configure
 from ..surface.reconstructor import Reconstructor
+from .distributed import ordered_map
 from .series_write import SeriesWriter
 
-__all__ = ["CHUNK_BYTES", "MAP_BYTES", "MAP_STEPS_PER_SAMPLE", "apply_chunk", "chunk_size", "dense_map",
-           "reconstruct_series"]
+__all__ = ["CHUNK_BYTES", "MAP_BYTES", "MAP_STEPS_PER_SAMPLE", "SeriesResult", "apply_chunk", "chunk_size",
+           "dense_map", "reconstruct_series"]
 
 #: Bytes of values one chunk of time steps may hold (the result and the solver's copies: about 4x this).
 CHUNK_BYTES = 64 * 2**20
@@ -43,6 +49,55 @@ def chunk_size(n, steps, given=None):
             raise OptionError(f"chunk={given!r}: pass a number of time steps >= 1")
         return int(min(given, steps))
     return int(max(1, min(steps, CHUNK_BYTES // (8 * max(n, 1)))))
+
+
+@dataclass(frozen=True)
+class SeriesResult:
+    """What :func:`reconstruct_series` wrote: the values themselves are in the file, never all in memory.
+
+    Attributes
+    ----------
+    path : Path
+        The series file (with its ``.h5`` or folder of ``.vtu`` beside it).
+    steps : int
+        Time steps written.
+    chunk : int
+        Time steps per chunk.
+    chunks : int
+        Chunks applied and written.
+    seconds : dict of str to float
+        ``prepare``, ``reconstruct`` (the chunks' applies, summed over workers with a client),
+        ``write``, ``total``; with a client also ``send`` (the broadcast) and ``wait`` (the time
+        blocked on results); through the dense map, ``map`` (its ``k`` solves).
+    report : dict
+        The last chunk's reconstruction report (through the map: the last step's).
+
+    Examples
+    --------
+    >>> r = SeriesResult(Path("x.npy"), steps=5, chunk=2, chunks=3, seconds={}, report={})
+    >>> r.chunks, r.linear_map
+    (3, False)
+    """
+
+    path: Path
+    steps: int
+    chunk: int
+    chunks: int
+    seconds: dict
+    report: dict
+
+    @property
+    def linear_map(self):
+        """Whether the series went through the dense ``(n, k)`` map (:func:`dense_map`)."""
+        return "map" in self.seconds
+
+    def __getitem__(self, key):
+        """``result["steps"]``, as when this was a dict (deprecated: use the attribute; removed in 0.3)."""
+        if key not in ("steps", "chunk", "chunks", "seconds", "report"):
+            raise KeyError(key)
+        warnings.warn(f"reconstruct_series(...)[{key!r}] is deprecated; use the attribute .{key}",
+                      DeprecationWarning, stacklevel=2)
+        return getattr(self, key)
 
 
 def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk=None, progress=None, client=None,
@@ -75,17 +130,14 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
         manifill installed. None (default): every chunk in this process. A linear series long enough
         for its dense map (:func:`dense_map`) runs here: one product per chunk.
     **options
-        The options of :func:`manifill.reconstruct` (``method``, ``solver``, ...), but
+        The options of :func:`manifill.reconstruct` (``method``, ``solver``, ..., or ``options=``), but
         ``uncertainty`` and ``trust`` (a series file holds the values alone).
 
     Returns
     -------
-    dict
-        ``steps``, ``chunk``, ``chunks``, ``seconds`` (``prepare``, ``reconstruct``: the chunks'
-        applies, summed over workers with a client, ``write``, ``total``; with a client also ``send``,
-        the broadcast, and ``wait``, the time blocked on results; through the dense map, ``map``: its
-        ``k`` solves) and ``report``: the last chunk's reconstruction report (through the map: the
-        last step's).
+    SeriesResult
+        ``path``, ``steps``, ``chunk``, ``chunks``, ``seconds`` (per stage) and ``report`` (the
+        last chunk's reconstruction report; through the map: the last step's).
 
     Raises
     ------
@@ -101,13 +153,13 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     >>> vals = np.outer(V[idx, 0], np.arange(5.0))                  # (9, 5): five time steps
     >>> out = os.path.join(tempfile.mkdtemp(), "x.npy")
     >>> s = reconstruct_series(V, F, idx, vals, out, chunk=2, method="harmonic")
-    >>> s["steps"], s["chunks"], np.load(out).shape
+    >>> s.steps, s.chunks, np.load(out).shape
     (5, 3, (162, 5))
     """
     t0 = time.perf_counter()
-    if options.get("uncertainty") or options.get("trust") is not None:
+    o = configure(options.pop("options", None), **options)
+    if ("uncertainty" in o.given and o.uq.uncertainty) or o.uq.trust is not None:
         raise OptionError("a series file holds the values alone, without the std; leave uncertainty and trust out")
-    options = {k: v for k, v in options.items() if k not in ("uncertainty", "trust")}
     vals = np.asarray(vals, dtype=np.float64)
     if vals.ndim == 1:
         vals = vals[:, None]
@@ -117,12 +169,12 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     times = np.arange(T, dtype=np.float64) if times is None else np.asarray(times, dtype=np.float64).ravel()
     if times.shape != (T,):
         raise SampleError(f"{times.size} times for {T} time steps (columns of vals); pass one time per column")
-    rec = Reconstructor(V, F, idx, fields=T, **options)
+    rec = Reconstructor(V, F, idx, fields=T, options=o)
     n = rec.surface.n
     step = chunk_size(n, T, chunk)
     starts = range(0, T, step)
     seconds = {"prepare": time.perf_counter() - t0, "reconstruct": 0.0, "write": 0.0}
-    W = dense_map(rec, T, options.get("check"), seconds)
+    W = dense_map(rec, T, o.step1.check, seconds)
 
     def span(s):
         return f"steps {s}-{min(s + step, T) - 1}"
@@ -146,8 +198,6 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
                 yield one(vals[:, s:s + step], s == 0)
         results = blocks()
     else:
-        from .distributed import ordered_map
-
         seconds.update(send=0.0, wait=0.0)
         results = ordered_map(client, apply_chunk, rec, ((vals[:, s:s + step], s == 0) for s in starts),
                               seconds=seconds)
@@ -172,7 +222,7 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     finally:
         results.close()  # a Dask run cancels the chunks not yet done
     seconds["total"] = time.perf_counter() - t0
-    return {"steps": T, "chunk": step, "chunks": len(starts), "seconds": seconds, "report": report}
+    return SeriesResult(Path(path), steps=T, chunk=step, chunks=len(starts), seconds=seconds, report=report)
 
 
 def apply_chunk(rec, block, first):

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import WriteError
+from ..errors import ManifillError, WriteError
+from ..validate import as_mesh
 from .files import atomic_path
 from .vtkxml_decode import VTK_TYPES
 
@@ -182,9 +183,6 @@ def write_polydata(path, V, F, point_data=None):
         A malformed mesh, a field of the wrong shape or type or with an unusable
         name, a missing folder, or a failure while writing (nothing is left behind).
     """
-    from ..errors import ManifillError
-    from ..validate import as_mesh
-
     try:
         V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     except ManifillError as exc:

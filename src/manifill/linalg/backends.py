@@ -30,13 +30,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolveError
-from ..memory import check_fits, lu_memory
+from ..memory import available_bytes, check_fits, lu_memory
+from ..tolerances import TOL
+from ..validate import check_option
 from .amg import Multigrid, canonical_csr, independent_blocks
 from .factorise import DIRECT_ENV, direct_factoriser, factorise
 from .pcg import nrm2
 from .threads import workers
-from ..tolerances import TOL
-from ..validate import check_option
 
 __all__ = ["SOLVERS", "ITERATIONS", "AUTO_DIRECT_FIELDS", "auto_backend", "solve_block",
            "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver",
@@ -444,8 +444,6 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False):
     >>> auto_backend(100_000, 700_000, fields=100, largest=3_000), auto_backend(100_000, 700_000, largest=3_000)
     ('direct', 'amg')
     """
-    from ..memory import available_bytes
-
     if unknowns <= AUTO_DIRECT_MAX:
         return "direct"
     small = (unknowns if largest is None else largest) <= AUTO_DIRECT_MAX

@@ -30,9 +30,10 @@ def polyharmonic_energy(L, M, k=2):
     L : (n, n) scipy sparse matrix
         Symmetric positive semi-definite stiffness (e.g.
         :func:`manifill.mesh.laplacian.laplacian` or
-        :func:`manifill.solid.tets.tet_laplacian`).
+        :func:`manifill.mesh.tetmesh.tet_laplacian`).
     M : (n, n) scipy sparse matrix or (n,) array_like
-        The lumped mass: a diagonal matrix or its diagonal, non-negative. A
+        The lumped mass (e.g. :func:`manifill.mesh.laplacian.mass_matrix`, whose
+        ``mass`` keyword picks it): a diagonal matrix or its diagonal, non-negative. A
         vertex of zero mass (used by no face) must have an empty row of ``L``;
         its ``M^-1`` is taken as 0.
     k : int, optional

@@ -5,6 +5,8 @@ name of what factorised; :class:`manifill.linalg.backends.DirectSolver` uses it.
 Pardiso comes from the optional ``pypardiso`` (the ``[fast]`` extra, pip only, x86-64).
 """
 
+import os
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
@@ -35,8 +37,6 @@ def direct_factoriser():
     >>> direct_factoriser() in ("pardiso", "superlu")
     True
     """
-    import os
-
     want = os.environ.get(DIRECT_ENV, "").strip().lower()
     if want == "superlu":
         return "superlu"
@@ -75,8 +75,6 @@ _MKL_RT = []  # the MKL library pypardiso found the first time
 def _pardiso_solver(pypardiso):
     """A new ``PyPardisoSolver``, with the MKL library found once (pypardiso searches its
     install tree at every construction when ``find_library`` fails: 0.6 s each, measured)."""
-    import os
-
     if not _MKL_RT:
         solver = pypardiso.PyPardisoSolver()
         _MKL_RT.append(getattr(solver.libmkl, "_name", None))

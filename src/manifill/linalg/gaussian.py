@@ -28,9 +28,11 @@ points inside faces) either exactly (``H x = y``) or with independent noise of v
 import time
 
 import numpy as np
+import scipy.linalg as la
 import scipy.sparse as sp
 
 from ..errors import OptionError, ResourceError, SolveError
+from ..memory import check_fits
 from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
@@ -168,8 +170,6 @@ class Conditional:
         if how == "exact":
             need = 8.0 * u * u * (1 if self.rows is None or self.eta is not None else 3)
             if u <= EXACT_LIMIT:
-                from ..memory import check_fits
-
                 check_fits(need, f"variance='exact' ({u:,} unknowns, a dense inverse)", "pass variance='sampled'")
             else:
                 gb = need / 1e9
@@ -188,8 +188,6 @@ class Conditional:
         return var, info
 
     def _exact(self):
-        import scipy.linalg as la
-
         var = np.zeros(self.n)
         if self.eta is not None:
             var[:] = _inverse_diagonal(self.P.toarray())
@@ -254,8 +252,6 @@ def observation_matrix(n, idx, rows=None):
 
 def _inverse_diagonal(A):
     """``diag(A^-1)`` of a dense symmetric positive definite ``A`` (Cholesky)."""
-    import scipy.linalg as la
-
     # in place (LAPACK's potrf then potri): one n x n array in all, A's own
     c, info = la.lapack.dpotrf(np.asfortranarray(A), lower=1, overwrite_a=1, clean=0)
     if info == 0:

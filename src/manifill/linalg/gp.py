@@ -23,6 +23,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..errors import OptionError, SampleError
+from .factorise import factorise
 from .gaussian import VARIANCES, Conditional, observation_matrix
 from .gpfit import fit_range, matern_correlation
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
@@ -30,7 +31,7 @@ from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 __all__ = ["GPOptions", "as_gp_options", "gp_condition", "intrinsic_std"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GPOptions:
     """Options of ``method='gp'`` (pass a ``GPOptions`` or a dict of these names as ``gp=``).
 
@@ -149,8 +150,56 @@ def _groups(keys):
     return out
 
 
+@dataclass(frozen=True)
+class _Prior:
+    """The SPDE's order and dimension, and the conversion between ``sigma`` and the scale ``s^2``."""
+
+    alpha: int
+    d: int
+    nu: float
+    var_factor: float  # the marginal variance at kappa = 1 and s^2 = 1
+
+    @classmethod
+    def of(cls, alpha, d):
+        v = nu(alpha, d)
+        return cls(alpha, d, v, 1.0 if v <= 0 else sigma_from_tau(1.0, 1.0, alpha, d) ** 2)
+
+    def s2_of_sigma(self, sigma, kappa):
+        """``s^2`` from ``sigma^2 = s^2 * factor(kappa)``, ``factor = factor(1) * kappa^(-2 nu)``."""
+        return float(sigma) ** 2 / (self.var_factor * kappa ** (-2.0 * self.nu))
+
+    def sigma(self, s2, kappa):
+        """The marginal standard deviation of the scale ``s2`` at ``kappa`` (None without a finite variance)."""
+        return None if self.nu <= 0 else math.sqrt(s2 * self.var_factor * kappa ** (-2.0 * self.nu))
+
+
+@dataclass
+class _Hyper:
+    """Per field: ``kappa``, the scale ``s2`` (None: profiled in closed form with the mean) and noise ``n2``."""
+
+    kappa: list
+    s2: list
+    n2: list
+
+
+@dataclass(frozen=True)
+class _FitData:
+    """What the likelihood sees: each field standardised, ``Z = (Y[sub] - centre) / unit``."""
+
+    sub: np.ndarray
+    Z: np.ndarray
+    unit: np.ndarray
+    mean: object  # 0.0 (a known mean, subtracted) or 'constant'
+    noise2: object  # the given noise variance per field in the units of Z, or None
+    fit_noise: bool
+
+
 def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", positions=None, with_std=True):
     """Posterior mean and standard deviation of the Matérn field at every node.
+
+    The steps: :func:`_check_samples`; the hyperparameters, fitted (:func:`_fit`) or given
+    (:func:`_given`); the posterior per group of fields sharing a precision (:func:`_posterior`);
+    the report's summary (:func:`_summary`).
 
     Parameters
     ----------
@@ -179,114 +228,163 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
     report : dict
     """
     t0 = time.perf_counter()
-    alpha, d = opts.alpha, shape.d
+    prior = _Prior.of(opts.alpha, shape.d)
     Y = np.asarray(Y, dtype=np.float64)
-    m, p = Y.shape
+    _check_samples(opts, prior, Y.shape[0])
+    report = {"alpha": prior.alpha, "nu": prior.nu, "dimension": prior.d, "fitted": [], "mean_model": opts.mean}
+    seconds = {}
+    if _needs_fit(opts):
+        t = time.perf_counter()
+        hyper = _fit(shape, idx, rows, Y, opts, prior, (length, diameter), positions, report)
+        seconds["fit"] = time.perf_counter() - t
+    else:
+        hyper = _given(opts, prior, Y.shape[1], report)
+    t = time.perf_counter()
+    X, std, beta, var_info, groups = _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report)
+    seconds["posterior"] = time.perf_counter() - t
+    report.update(_summary(prior, hyper, beta, var_info, groups))
+    report["seconds"] = {**seconds, "total": time.perf_counter() - t0}
+    return X, (std if with_std else None), report
+
+
+def _check_samples(opts, prior, m):
+    """Refuse a fit with fewer than 3 observations, and a given ``sigma`` without a finite prior variance."""
     if m < 3 and "auto" in (opts.range, opts.sigma, opts.noise):
         raise SampleError(f"fitting the gp's hyperparameters needs at least 3 samples, got {m}; give range, "
                           f"sigma and noise in gp=")
-    if opts.sigma != "auto" and nu(alpha, d) <= 0:
-        raise OptionError(f"gp sigma= needs a finite prior variance, and alpha={alpha} in dimension {d} has none; "
-                          f"pass alpha=2 or leave sigma='auto'")
-    var_factor = 1.0 if nu(alpha, d) <= 0 else sigma_from_tau(1.0, 1.0, alpha, d) ** 2  # at kappa = 1
-    v = nu(alpha, d)
+    if opts.sigma != "auto" and prior.nu <= 0:
+        raise OptionError(f"gp sigma= needs a finite prior variance, and alpha={prior.alpha} in dimension "
+                          f"{prior.d} has none; pass alpha=2 or leave sigma='auto'")
 
-    def s2_of_sigma(kappa):  # sigma^2 = s^2 * factor(kappa), factor = factor(1) * kappa^(-2 nu)
-        return float(opts.sigma) ** 2 / (var_factor * kappa ** (-2.0 * v))
 
+def _needs_fit(opts):
+    """Whether the likelihood is searched: a range or a noise to fit, or a scale with a given noise."""
+    return opts.range == "auto" or opts.noise == "auto" or (opts.sigma == "auto" and opts.noise not in (0.0,))
+
+
+def _noise2(opts, p):
+    """The given noise variance per field, None when it is fitted."""
+    return None if opts.noise == "auto" else np.full(p, float(opts.noise) ** 2)
+
+
+def _field_sets(opts, p):
+    """The columns fitted together: all of them (``share``), else one at a time."""
+    return [list(range(p))] if opts.share else [[j] for j in range(p)]
+
+
+def _given(opts, prior, p, report):
+    """The hyperparameters as given (the scale, when not, is profiled later in closed form)."""
+    kap = kappa_from_range(opts.range, prior.alpha, prior.d)
+    noise2 = _noise2(opts, p)
+    s2 = prior.s2_of_sigma(opts.sigma, kap) if opts.sigma != "auto" else None
+    if opts.sigma == "auto":
+        report["fitted"] = ["sigma"]
+    return _Hyper([kap] * p, [s2] * p, [0.0 if noise2 is None else float(noise2[j]) for j in range(p)])
+
+
+def _fit_data(Y, opts, positions):
+    """The fit's subset of the samples, each field standardised (see :class:`_FitData`)."""
+    m, p = Y.shape
+    sub = np.arange(m)
+    if m > opts.fit_samples:  # drawn in the order of the positions: the same subset however nodes are numbered
+        order = np.arange(m) if positions is None else np.lexsort(np.asarray(positions, dtype=np.float64).T)
+        pick = np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False)
+        sub = np.sort(order[pick])
+    # the fit sees each field standardised: the range it finds is then the same for a * y + b, exactly
+    known = not isinstance(opts.mean, str)
+    centre = np.full(p, float(opts.mean)) if known else Y[sub].mean(axis=0)
+    unit = Y[sub].std(axis=0)
+    unit[~(unit > 0)] = 1.0
+    noise2 = _noise2(opts, p)
+    return _FitData(sub, (Y[sub] - centre) / unit, unit, 0.0 if known else "constant",
+                    None if noise2 is None else noise2 / unit ** 2, opts.noise == "auto")
+
+
+def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
+    """The fitted hyperparameters (:class:`_Hyper`); adds ``loglik``, ``fit`` (``fit_start``) and ``fitted``."""
+    p = Y.shape[1]
+    data = _fit_data(Y, opts, positions)
+    Hs = observation_matrix(shape.n, idx, rows)[data.sub]
+
+    def covariance(kap):
+        return shape.covariance_at(kap, Hs, factorise(shape.K(kap).tocsc())[1])
+
+    length, diameter = lengths
+    bounds = (kappa_from_range(2.0 * diameter, prior.alpha, prior.d),
+              kappa_from_range(max(2.0 * length, diameter / 200.0), prior.alpha, prior.d))
+    bracket, points = bounds, 7
+    if positions is not None and opts.range == "auto" and prior.nu > 0 and opts.sigma == "auto":
+        bracket, points = _near_euclidean(np.asarray(positions, dtype=np.float64)[data.sub], data.Z, bounds,
+                                          prior.nu, data.mean, data.noise2, data.fit_noise, report)
+    hyper = _Hyper([None] * p, [None] * p, [0.0] * p)
+    fits = []
+    for cols in _field_sets(opts, p):
+        fit = _fit_fields(covariance, data, cols, opts, prior, (bounds, bracket, points))
+        for i, j in enumerate(cols):
+            hyper.kappa[j] = fit["kappa"]
+            s2, hyper.n2[j] = fit["s2"][i] * data.unit[j] ** 2, fit["noise2"][i] * data.unit[j] ** 2
+            # without noise and sigma, the scale is re-profiled on all the samples (closed form)
+            hyper.s2[j] = None if opts.sigma == "auto" and hyper.n2[j] == 0.0 else s2
+        # the standardisation's Jacobian: the data's own likelihood
+        dof = data.sub.size - (1 if isinstance(data.mean, str) else 0)
+        fit["loglik"] -= dof * float(np.log(data.unit[cols]).sum())
+        fits.append(fit)
+    report["loglik"] = float(sum(f["loglik"] for f in fits))
+    report["fit"] = {"samples": int(data.sub.size), "evaluations": int(sum(f["evaluations"] for f in fits)),
+                     "range_bounds": [range_from_kappa(b, prior.alpha, prior.d) for b in bounds[::-1]],
+                     "criterion": "restricted likelihood" if opts.mean == "constant" else "likelihood"}
+    report["fitted"] = [name for name in ("range", "sigma", "noise") if getattr(opts, name) == "auto"]
+    return hyper
+
+
+def _fit_fields(covariance, data, cols, opts, prior, search):
+    """The likelihood fit of the columns ``cols`` (one :func:`manifill.linalg.gpfit.fit_range` answer).
+
+    ``search`` is ``(bounds, bracket, points)``: the whole interval of ``kappa``, the bracket
+    searched first on a grid of ``points``; a fit at an inner edge of the bracket searches it all.
+    """
+    bounds, bracket, points = search
+    Z = data.Z[:, cols]
+    noise2 = None if data.noise2 is None else data.noise2[cols]
     fixed_s2 = opts.sigma != "auto"
-    noise2 = None if opts.noise == "auto" else np.full(p, float(opts.noise) ** 2)
-    fit_noise = opts.noise == "auto"
-    need_fit = opts.range == "auto" or fit_noise or (opts.sigma == "auto" and opts.noise not in (0.0,))
-    report = {"alpha": alpha, "nu": v, "dimension": d, "fitted": [], "mean_model": opts.mean}
-    H = None
-    seconds = {}
-    cols_sets = [list(range(p))] if opts.share else [[j] for j in range(p)]
-    kappa = [None] * p
-    s2 = [None] * p
-    n2 = [0.0] * p
-    if need_fit:
-        t = time.perf_counter()
-        from .factorise import factorise
+    given_k = None if opts.range == "auto" else kappa_from_range(opts.range, prior.alpha, prior.d)
+    if fixed_s2 and given_k is None:  # the scale follows kappa
+        return fit_range(covariance, Z, bounds, mean=data.mean,
+                         s2=lambda kap: (prior.s2_of_sigma(opts.sigma, kap) / data.unit ** 2)[cols],
+                         noise2=noise2, fit_noise=data.fit_noise)
+    s2_given = None if not fixed_s2 else (prior.s2_of_sigma(opts.sigma, given_k) / data.unit ** 2)[cols]
+    kw = dict(mean=data.mean, s2=s2_given, noise2=noise2, fit_noise=data.fit_noise, kappa=given_k)
+    fit = fit_range(covariance, Z, bracket, points=points, **kw)
+    # at an edge of the bracket that is not an end of the whole interval: search it all
+    inner = [b for b, f in zip(bracket, bounds) if abs(math.log(b / f)) > 1e-9]
+    edge = min((abs(math.log(fit["kappa"] / b)) for b in inner), default=np.inf)
+    if given_k is None and edge < 0.02:
+        more = fit_range(covariance, Z, bounds, **kw)
+        more["evaluations"] += fit["evaluations"]
+        fit = more
+    return fit
 
-        H = observation_matrix(shape.n, idx, rows)
-        sub = np.arange(m)
-        if m > opts.fit_samples:  # drawn in the order of the positions: the same subset however nodes are numbered
-            order = np.arange(m) if positions is None else np.lexsort(np.asarray(positions, dtype=np.float64).T)
-            pick = np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False)
-            sub = np.sort(order[pick])
-        Hs = H[sub]
-        # the fit sees each field standardised: the range it finds is then the same for a * y + b, exactly
-        known = not isinstance(opts.mean, str)
-        centre = np.full(p, float(opts.mean)) if known else Y[sub].mean(axis=0)
-        unit = Y[sub].std(axis=0)
-        unit[~(unit > 0)] = 1.0
-        Z = (Y[sub] - centre) / unit
-        fmean = 0.0 if known else "constant"
-        fnoise2 = None if noise2 is None else noise2 / unit ** 2
 
-        def covariance(kap):
-            return shape.covariance_at(kap, Hs, factorise(shape.K(kap).tocsc())[1])
+def _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report):
+    """``(X, std, beta, variance infos, groups)``: the posterior of every group of fields that share a precision.
 
-        bounds = (kappa_from_range(2.0 * diameter, alpha, d),
-                  kappa_from_range(max(2.0 * length, diameter / 200.0), alpha, d))
-        fits = []
-        full, bracket, points = bounds, bounds, 7
-        if positions is not None and opts.range == "auto" and v > 0 and not fixed_s2:
-            bracket, points = _near_euclidean(np.asarray(positions, dtype=np.float64)[sub], Z, bounds, v, fmean,
-                                              fnoise2, fit_noise, report)
-        for cols in cols_sets:
-            given_k = None if opts.range == "auto" else kappa_from_range(opts.range, alpha, d)
-            if fixed_s2 and given_k is None:  # the scale follows kappa
-                fit = fit_range(covariance, Z[:, cols], bounds, mean=fmean,
-                                s2=lambda kap, cols=cols: (s2_of_sigma(kap) / unit ** 2)[cols],
-                                noise2=None if fnoise2 is None else fnoise2[cols], fit_noise=fit_noise)
-            else:
-                s2_given = None if not fixed_s2 else (s2_of_sigma(given_k) / unit ** 2)[cols]
-                kw = dict(mean=fmean, s2=s2_given, noise2=None if fnoise2 is None else fnoise2[cols],
-                          fit_noise=fit_noise, kappa=given_k)
-                fit = fit_range(covariance, Z[:, cols], bracket, points=points, **kw)
-                # at an edge of the bracket that is not an end of the whole interval: search it all
-                inner = [b for b, f in zip(bracket, full) if abs(math.log(b / f)) > 1e-9]
-                edge = min((abs(math.log(fit["kappa"] / b)) for b in inner), default=np.inf)
-                if given_k is None and edge < 0.02:
-                    more = fit_range(covariance, Z[:, cols], full, **kw)
-                    more["evaluations"] += fit["evaluations"]
-                    fit = more
-            for i, j in enumerate(cols):
-                kappa[j] = fit["kappa"]
-                s2[j], n2[j] = fit["s2"][i] * unit[j] ** 2, fit["noise2"][i] * unit[j] ** 2
-                if not fixed_s2 and n2[j] == 0.0:  # re-profiled below on all the samples (closed form)
-                    s2[j] = None
-            dof = sub.size - (0 if known else 1)  # the standardisation's Jacobian: the data's own likelihood
-            fit["loglik"] -= dof * float(np.log(unit[cols]).sum())
-            fits.append(fit)
-        report["loglik"] = float(sum(f["loglik"] for f in fits))
-        report["fit"] = {"samples": int(sub.size), "evaluations": int(sum(f["evaluations"] for f in fits)),
-                         "range_bounds": [range_from_kappa(b, alpha, d) for b in bounds[::-1]],
-                         "criterion": "restricted likelihood" if opts.mean == "constant" else "likelihood"}
-        report["fitted"] = [name for name in ("range", "sigma", "noise") if getattr(opts, name) == "auto"]
-        seconds["fit"] = time.perf_counter() - t
-    else:
-        kap = kappa_from_range(opts.range, alpha, d)
-        kappa = [kap] * p
-        s2 = [s2_of_sigma(kap) if fixed_s2 else None] * p
-        n2 = [0.0 if noise2 is None else float(noise2[j]) for j in range(p)]
-        if opts.sigma == "auto":
-            report["fitted"] = ["sigma"]
-
+    A scale ``hyper.s2`` left None is set here, in closed form (REML, or ML with a known mean).
+    ``std`` is not filled without ``with_std``. ``report['solver']`` is the last group's.
+    """
+    m, p = Y.shape
     X = np.empty((shape.n, p))
     std = np.empty((shape.n, p))
     beta = [0.0] * p
     var_info = []
-    t = time.perf_counter()
+    known = not isinstance(opts.mean, str)
+    kappa, s2, n2 = hyper.kappa, hyper.s2, hyper.n2
     # fields that share kappa and the noise ratio share one precision (the ratio to 12 digits: a shared fit's
     # fields carry it through their own scales, rounded apart in the last bits)
     eta_key = [(kappa[j], None if s2[j] is None or n2[j] == 0 else float(f"{n2[j] / s2[j]:.12g}")) for j in range(p)]
-    for (kap, eta), cols in _groups(eta_key).items():
+    groups = _groups(eta_key)
+    for (kap, eta), cols in groups.items():
         Q, B = shape.precision(kap), shape.root(kap)
         cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver), definite=True)
-        known = not isinstance(opts.mean, str)
         data = Y[:, cols] - (float(opts.mean) if known else 0.0)
         Z = cond.extend(np.column_stack([data, np.ones(m)]))
         G = cond.gram(np.column_stack([data, np.ones(m)]), Z)
@@ -310,19 +408,22 @@ def gp_condition(shape, idx, rows, Y, opts, *, length, diameter, solver="auto", 
         for j in cols:
             std[:, j] = np.sqrt(np.maximum(s2[j] * (var + extra), 0.0))
         var_info.append(info)
-    seconds["posterior"] = time.perf_counter() - t
-    report.update({
+    return X, std, beta, var_info, len(groups)
+
+
+def _summary(prior, hyper, beta, var_info, groups):
+    """The report's hyperparameters per field, the means, the variance's summary and the number of groups."""
+    kappa, s2 = hyper.kappa, hyper.s2
+    return {
         "kappa": [float(k) for k in kappa],
-        "range": [range_from_kappa(k, alpha, d) for k in kappa],
+        "range": [range_from_kappa(k, prior.alpha, prior.d) for k in kappa],
         "scale": [math.sqrt(s) for s in s2],
-        "sigma": [None if v <= 0 else math.sqrt(s2[j] * var_factor * kappa[j] ** (-2.0 * v)) for j in range(p)],
-        "noise": [math.sqrt(x) for x in n2],
+        "sigma": [prior.sigma(s2[j], kappa[j]) for j in range(len(kappa))],
+        "noise": [math.sqrt(x) for x in hyper.n2],
         "mean": [float(b) for b in beta],
         "variance": _variance_summary(var_info),
-        "groups": len(_groups(eta_key)),
-        "seconds": {**seconds, "total": time.perf_counter() - t0},
-    })
-    return X, (std if with_std else None), report
+        "groups": groups,
+    }
 
 
 def _variance_summary(infos):

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 from scipy.optimize import minimize_scalar
+from scipy.special import gamma, kv
 
 __all__ = ["Likelihood", "bounded_search", "restricted_loglik", "fit_range", "matern_correlation"]
 
@@ -202,8 +203,6 @@ def matern_correlation(D, kappa, nu):
     >>> bool(np.allclose(c, [1.0, np.exp(-2.0)]))
     True
     """
-    from scipy.special import gamma, kv
-
     x = np.maximum(np.asarray(D, dtype=np.float64) * kappa, 1e-300)
     c = (2.0 ** (1.0 - nu) / gamma(nu)) * x ** nu * kv(nu, x)
     return np.where(np.asarray(D) == 0, 1.0, c)

@@ -39,7 +39,7 @@ from scipy.sparse.linalg import splu
 from ..tolerances import TOL
 from ..validate import unit_scale
 from .gridlevels import Level, coarse_axes, free_matrix, prolong_axis, restrict_axis, wall_weights
-from .pcg import pcg
+from .pcg import Kernels, pcg
 from .threads import workers as thread_count
 
 __all__ = ["GridMultigrid"]
@@ -259,7 +259,7 @@ class GridMultigrid:
             A.chunks.run(part)
 
         res = pcg(matvec, r, x, precondition=precondition, rtol=self.rtol, maxiter=self.maxiter, norm0=norm0,
-                  stall=STALL, breakdown=False, inner=self._dot, update=update, direction=direction)
+                  stall=STALL, breakdown=False, kernels=Kernels(inner=self._dot, update=update, direction=direction))
         return x, res
 
     def solve(self, R, x0=None):

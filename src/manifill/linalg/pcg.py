@@ -21,7 +21,7 @@ import numpy as np
 
 from ..tolerances import TOL
 
-__all__ = ["PCGResult", "pcg", "dot", "nrm2"]
+__all__ = ["PCGResult", "Kernels", "pcg", "dot", "nrm2"]
 
 
 def dot(x, y):
@@ -88,8 +88,28 @@ class PCGResult:
         return self.status == "converged"
 
 
+@dataclass(frozen=True)
+class Kernels:
+    """The vector operations of :func:`pcg`, for a caller that runs them its own way (threads, chunks).
+
+    Attributes
+    ----------
+    inner : callable
+        ``inner(u, v)``, the inner product (default :func:`dot`).
+    update : callable or None
+        ``update(alpha, p, Ap)`` does ``x += alpha p``, ``r -= alpha Ap`` and
+        returns ``||r||``; None: with numpy and :func:`nrm2`.
+    direction : callable or None
+        ``direction(beta, p, z)`` does ``p = z + beta p`` in place; None: with numpy.
+    """
+
+    inner: object = dot
+    update: object = None
+    direction: object = None
+
+
 def pcg(matvec, r, x, *, precondition=None, rtol, maxiter, norm0=1.0, flexible=False, stall=None,
-        breakdown=True, inner=dot, update=None, direction=None):
+        breakdown=True, kernels=None):
     """Preconditioned conjugate gradients for ``A x = b`` from the residual ``r = b - A x``.
 
     Parameters
@@ -120,13 +140,9 @@ def pcg(matvec, r, x, *, precondition=None, rtol, maxiter, norm0=1.0, flexible=F
     breakdown : bool, optional
         Stop (status ``breakdown``) when ``p.Ap`` or ``r.z`` is not positive;
         without, such a step is taken and a ``stall`` test ends the loop.
-    inner : callable, optional
-        ``inner(u, v)``, the inner product (default :func:`dot`).
-    update : callable, optional
-        ``update(alpha, p, Ap)`` does ``x += alpha p``, ``r -= alpha Ap`` and
-        returns ``||r||``; by default with :func:`nrm2`.
-    direction : callable, optional
-        ``direction(beta, p, z)`` does ``p = z + beta p`` in place.
+    kernels : Kernels, optional
+        The inner product and the two vector updates (default: numpy's, on
+        this thread).
 
     Returns
     -------
@@ -142,6 +158,8 @@ def pcg(matvec, r, x, *, precondition=None, rtol, maxiter, norm0=1.0, flexible=F
     >>> res.status, res.iterations <= 25, bool(np.linalg.norm(A @ x - b) <= 1e-10)
     ('converged', True, True)
     """
+    kernels = Kernels() if kernels is None else kernels
+    inner, update, direction = kernels.inner, kernels.update, kernels.direction
     if precondition is None:
         def precondition(v, _):
             return v.copy()

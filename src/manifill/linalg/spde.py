@@ -107,7 +107,7 @@ class MaternShape:
     >>> from manifill.mesh.laplacian import laplacian, mass_matrix
     >>> from manifill.mesh.roots import gradient_root
     >>> V, F = icosphere(2)
-    >>> m = MaternShape(laplacian(V, F), mass_matrix(V, F).diagonal(), gradient_root(V, F), 2, 2)
+    >>> m = MaternShape(laplacian(V, F), mass_matrix(V, F, mass="barycentric").diagonal(), gradient_root(V, F), 2, 2)
     >>> B, Q = m.root(3.0), m.precision(3.0)
     >>> bool(abs(B.T @ B - Q).max() < 1e-9 * abs(Q).max())
     True

@@ -1,5 +1,7 @@
 """Discrete Laplacians of a triangle mesh (uniform, cotangent, intrinsic Delaunay, robust) and its mass matrix.
 
+The tetrahedral stiffness and mass are :mod:`manifill.mesh.tetmesh`'s; :func:`mass_matrix` serves both.
+
 All are returned as the symmetric positive semi-definite matrix ``L = D - W`` with
 ``(L x)_i = sum_j w_ij (x_i - x_j)``: a function is discretely harmonic at ``i``
 exactly when ``(L x)_i = 0``, i.e. when ``x_i`` is the ``w``-weighted average of its
@@ -29,19 +31,24 @@ Which weights when
     triangles.
 """
 
+import warnings
+
 import numpy as np
 import scipy.sparse as sp
 
+from ..errors import OptionError
 from ..tolerances import TOL
 from ..validate import as_mesh, check_option, scale_and_diagonal
 from .edges import EdgeIndex
 from .geometry import AREAS, cotangents, vertex_areas
+from .tetmesh import cell_width, tet_mass_matrix
 
 __all__ = ["laplacian", "mass_matrix", "WEIGHTS", "MASS"]
 
 WEIGHTS = ("uniform", "cotan", "intrinsic", "robust")
 
-#: The lumped mass matrices :func:`mass_matrix` builds.
+#: The lumped mass matrices :func:`mass_matrix` builds (keyword ``mass``; the first is the default everywhere:
+#: :func:`mass_matrix`, :func:`manifill.biharmonic`, :class:`manifill.PolyharmonicSolver`).
 MASS = AREAS
 
 
@@ -146,8 +153,8 @@ def assemble_laplacian(V, F, weights, index=None):
     return _assemble(_normalised(V), F, n, weights, index)
 
 
-def mass_matrix(V, F, *, kind="barycentric"):
-    """The lumped (diagonal) mass matrix ``M`` of a triangle mesh: the area belonging to each vertex.
+def mass_matrix(V, F, *, mass=None, kind=None):
+    """The lumped (diagonal) mass matrix ``M`` of a triangle or tetrahedral mesh: the area or volume of each vertex.
 
     With the stiffness matrix :func:`laplacian` (``weights='cotan'``) it makes the
     linear finite elements: ``L x = M f`` is the Poisson problem, ``x' M x`` the
@@ -157,11 +164,19 @@ def mass_matrix(V, F, *, kind="barycentric"):
     ----------
     V : (n, 3) or (n, 2) array_like
         Vertex positions.
-    F : (m, 3) array_like of int
-        Triangles, any integer dtype; zero-area faces are allowed (they weigh nothing).
+    F : (m, 3) or (m, 4) array_like of int
+        Triangles, or tetrahedra (told apart by the width, as
+        :func:`manifill.harmonic` does), any integer dtype; zero-area faces are
+        allowed (they weigh nothing).
+    mass : {None, 'voronoi', 'barycentric'}, optional
+        The mixed Voronoi area (see :func:`manifill.mesh.geometry.vertex_areas`),
+        or one third of every incident triangle's area. None (the default, as
+        libigl's ``massmatrix``): Voronoi on triangles; tetrahedra have the
+        barycentric mass alone (a quarter of every incident tet's volume,
+        :func:`manifill.mesh.tetmesh.tet_mass_matrix`).
     kind : {'barycentric', 'voronoi'}, optional
-        One third of every incident triangle's area, or the mixed Voronoi area
-        (see :func:`manifill.mesh.geometry.vertex_areas`).
+        The old name of ``mass``: still accepted for one release, with a
+        ``DeprecationWarning``.
 
     Returns
     -------
@@ -175,7 +190,8 @@ def mass_matrix(V, F, *, kind="barycentric"):
     MeshError
         If ``(V, F)`` is malformed (see :func:`manifill.validate.as_mesh`).
     OptionError
-        If ``kind`` is not one of the names above.
+        If ``mass`` is not one of the names above, ``'voronoi'`` for tetrahedra, or
+        ``kind`` and ``mass`` disagree.
 
     See Also
     --------
@@ -184,14 +200,35 @@ def mass_matrix(V, F, *, kind="barycentric"):
     Examples
     --------
     >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
-    >>> M = mass_matrix(V, np.array([[0, 1, 2], [1, 3, 2]]))
+    >>> M = mass_matrix(V, np.array([[0, 1, 2], [1, 3, 2]]), mass="barycentric")
     >>> (M.diagonal() * 6).tolist(), round(float(M.sum()), 12)
     ([1.0, 2.0, 2.0, 1.0], 1.0)
+    >>> (mass_matrix(V[[0, 1, 2]] + [0, 0, 1], [[0, 1, 2]], mass="voronoi").diagonal() * 8).tolist()
+    [2.0, 1.0, 1.0]
     """
-    check_option("kind", kind, MASS)
+    mass = _mass_name(mass, kind)
+    tets = cell_width(F) == 4
+    mass = ("barycentric" if tets else "voronoi") if mass is None else mass
+    check_option("mass", mass, MASS)
+    if tets:
+        if mass != "barycentric":
+            raise OptionError(f"mass={mass!r} is for triangles; tetrahedra have the barycentric mass alone (a "
+                              f"quarter volume per corner): pass mass='barycentric'")
+        return tet_mass_matrix(V, F)
     V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True)
     n = len(V)
     ramp = np.arange(n + 1, dtype=np.int32 if n < 2**31 - 1 else np.int64)
-    M = sp.csr_array((vertex_areas(V, F, kind=kind), ramp[:-1], ramp), shape=(n, n))
+    M = sp.csr_array((vertex_areas(V, F, kind=mass), ramp[:-1], ramp), shape=(n, n))
     M.has_sorted_indices = True
     return M
+
+
+def _mass_name(mass, kind):
+    """``mass``, or the old keyword ``kind`` when it is given (with a ``DeprecationWarning``)."""
+    if kind is None:
+        return mass
+    warnings.warn("mass_matrix(kind=...) is now mass_matrix(mass=...); kind will be removed in the next release",
+                  DeprecationWarning, stacklevel=3)
+    if mass is not None and mass != kind:
+        raise OptionError(f"kind={kind!r} and mass={mass!r} disagree; pass mass alone (kind is its old name)")
+    return kind

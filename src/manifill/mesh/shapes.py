@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from .edges import adjacency
+
 __all__ = ["icosphere", "grid", "great_circle_vertices"]
 
 
@@ -129,8 +131,6 @@ def great_circle_vertices(V, F, axes=(0, 1, 2)):
     >>> bool(0 < b.size < len(V) // 4)
     True
     """
-    from .edges import adjacency
-
     A = adjacency(F, len(V)).tocoo()
     fixed = np.zeros(len(V), dtype=bool)
     for axis in axes:

@@ -28,8 +28,8 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, ResourceError
 from ..memory import check_fits
+from ..validate import as_mesh, as_values
 from .edges import EdgeIndex
-from ..validate import as_mesh
 
 __all__ = ["subdivide", "loop_matrix", "subdivided_size", "subdivide_memory", "check_subdivide"]
 
@@ -280,8 +280,6 @@ def subdivide(V, F, values=None, *, levels=1):
     V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     X = None
     if values is not None:
-        from ..validate import as_values
-
         X, squeeze = as_values(values, len(V), what="values")
     check_subdivide(len(V), len(F), levels, 0 if X is None else X.shape[1])
     for _ in range(int(levels)):

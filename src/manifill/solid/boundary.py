@@ -15,6 +15,7 @@ A tetrahedral solid's D is its boundary triangles
 
 import numpy as np
 import scipy.sparse as sp
+from scipy import ndimage
 
 from ..errors import SampleError
 from ..mesh.graph import DISTANCES
@@ -57,7 +58,7 @@ def boundary_voxels(mask, connectivity=6):
     return mask & ~inner
 
 
-def digital_surface(mask, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6):
+def digital_surface(mask, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6):
     """The boundary voxels of a mask as a surface graph with positions and normals.
 
     Parameters
@@ -95,8 +96,6 @@ def digital_surface(mask, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), conne
     >>> len(voxels), P[-1].tolist(), bool((voxels[1:] > voxels[:-1]).any(axis=1).all())
     (26, [4.0, 4.0, 4.0], True)
     """
-    from scipy import ndimage
-
     mask = as_mask(mask)
     h = as_spacing(spacing)
     origin = as_origin(origin)

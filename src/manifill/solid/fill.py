@@ -8,7 +8,7 @@ Dirichlet problem. Its sparse form goes through the solve core
 the ``amg`` or ``direct`` backend); its matrix-free form uses the backend made for
 grids, the geometric multigrid :class:`manifill.linalg.gridmg.GridMultigrid`,
 with the stencil of :func:`manifill.solid.voxels.stencil_weights`. Tetrahedral
-solids use the tetrahedral Laplacians of :mod:`manifill.solid.tets` and the
+solids use the tetrahedral Laplacians of :mod:`manifill.mesh.tetmesh` and the
 same core.
 
 Before a large solve the memory it needs is estimated, and a problem that would
@@ -25,9 +25,9 @@ from ..linalg.backends import SOLVERS
 from ..linalg.gridmg import GridMultigrid
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..memory import check_fits, lu_memory
+from ..mesh.tetmesh import tet_laplacian
 from ..tolerances import TOL
 from ..validate import as_indices, as_mask, as_tets, as_values, as_voxels, check_option, unit_scale
-from .tets import tet_laplacian
 from .voxels import as_connectivity, as_spacing, stencil_weights, unit_spacing, voxel_components, voxel_laplacian
 
 __all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory", "tet_fill_memory"]

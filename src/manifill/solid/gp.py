@@ -6,9 +6,9 @@ anywhere in it (:func:`manifill.linalg.gp.gp_condition`), as :func:`manifill.sur
 does on a surface; there is no surface pass and no harmonic fill.
 
 - :func:`gp_tets`: the P1 finite elements of a tetrahedral mesh: the cotan stiffness
-  :func:`~manifill.solid.tets.tet_laplacian`, the lumped mass
-  :func:`~manifill.solid.tets.tet_mass_matrix` and the gradient root
-  :func:`~manifill.solid.tets.tet_gradient_root`.
+  :func:`~manifill.mesh.tetmesh.tet_laplacian`, the lumped mass
+  :func:`~manifill.mesh.tetmesh.tet_mass_matrix` and the gradient root
+  :func:`~manifill.mesh.tetmesh.tet_gradient_root`.
 - :func:`gp_voxels`: the voxel Laplacian (:func:`~manifill.solid.voxels.voxel_laplacian`,
   ``-Delta`` in units of ``1 / length^2``) times the voxel volume, i.e. the stiffness in
   physical units (``h`` per face on a cubic grid of side ``h``), the mass the voxel volume
@@ -21,18 +21,23 @@ does on a surface; there is no surface pass and no harmonic fill.
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from ..errors import OptionError
 from ..linalg.gp import as_gp_options, gp_condition
 from ..linalg.spde import MaternShape
 from ..mesh.roots import edge_root
-from ..surface.gp import check_uncertainty, trust_mask
+from ..surface.gp import trust_mask
+from ..surface.methods.registry import configure, method_of
 from ..validate import as_mask, as_origin, as_samples, as_spacing, as_tets, as_voxels
+from ..mesh.tetmesh import tet_gradient_root, tet_laplacian, tet_mass_matrix
 from .boundary import boundary_voxels
-from .tets import tet_gradient_root, tet_laplacian, tet_mass_matrix
-from .voxels import as_connectivity, stencil_weights, voxel_laplacian
+from .tetrahedralize import tetrahedralize
+from .volume_result import VolumeReconstruction
+from .voxelize import voxelize
+from .voxels import as_connectivity, stencil_weights, voxel_centres, voxel_laplacian
 
-__all__ = ["GP_SOLVERS", "GP_KEYS", "tet_shape", "voxel_shape", "gp_tets", "gp_voxels", "volume_gp",
+__all__ = ["GP_SOLVERS", "GP_KEYS", "GP_USES", "tet_shape", "voxel_shape", "gp_tets", "gp_voxels", "volume_gp",
            "split_gp_options", "finish"]
 
 #: The linear solvers of the solid's gp (multigrid and the iteration have no conditional variance here).
@@ -74,7 +79,7 @@ def _check_solver(solver, name="solver"):
 def _posterior(shape, idx, Y, gp, trust, untrusted, solver, length, diameter):
     """``(X, std, trusted or None, report)`` of the gp conditioned on ``Y`` at the nodes ``idx``."""
     opts = as_gp_options(gp)
-    check_uncertainty("gp", True, trust, untrusted, None)
+    configure(method="gp", uncertainty=True, trust=trust, untrusted=untrusted)  # the std's options checked
     _check_solver(solver)
     X, std, report = gp_condition(shape, idx, None, Y, opts, length=length, diameter=diameter, solver=solver)
     trusted = None
@@ -86,7 +91,7 @@ def _posterior(shape, idx, Y, gp, trust, untrusted, solver, length, diameter):
     return X, std, trusted, out
 
 
-def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="auto"):
+def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="auto", duplicates="error"):
     """``method='gp'`` on a tetrahedral mesh: the posterior mean and std at every vertex.
 
     Parameters
@@ -103,6 +108,8 @@ def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="a
         Mark (``trusted``) where the std exceeds ``trust`` times the samples' std.
     untrusted : {'mask', 'nan'}, optional
     solver : {'auto', 'direct', 'amg'}, optional
+    duplicates : {'error', 'mean'}, optional
+        A vertex sampled twice with different values: raise, or average.
 
     Returns
     -------
@@ -123,7 +130,7 @@ def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="a
     (True, True)
     """
     V, T = as_tets(V, T)
-    sidx, Y, squeeze = as_samples(idx, vals, len(V))
+    sidx, Y, squeeze = as_samples(idx, vals, len(V), duplicates=duplicates)
     opts = as_gp_options(gp)
     E = T[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2)
     length = float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))
@@ -133,8 +140,6 @@ def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="a
     report.update({"vertices": len(V), "tets": len(T), "method": "gp"})
     if squeeze:
         X, std = X[:, 0], std[:, 0]
-    from .reconstruct_volume import VolumeReconstruction
-
     return VolumeReconstruction(X, "tets", None, TV=V, TT=T, report=report, samples=sidx, std=std, trusted=trusted)
 
 
@@ -191,8 +196,6 @@ def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 
     if trusted is not None:
         ok = np.zeros(mask.shape, dtype=bool)
         ok[mask] = trusted
-    from .reconstruct_volume import VolumeReconstruction
-
     return VolumeReconstruction(values, "voxels", None, mask=mask, spacing=h, origin=as_origin(origin),
                                 fixed=boundary_voxels(mask, connectivity), report=report,
                                 samples=np.argwhere(mask)[sidx], std=sd, trusted=ok)
@@ -200,16 +203,27 @@ def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 
 
 #: The options of the gp in a solid, taken out of the surface options of the ``reconstruct_volume`` functions.
 GP_KEYS = ("gp", "uncertainty", "trust", "untrusted")
+#: The other options of :func:`manifill.reconstruct` that the gp in a solid uses; it runs no surface step, so
+#: the rest (``partition``, ``weights``, ``solver``, ...) would do nothing and are refused.
+GP_USES = ("method", "duplicates", "progress")
 
 
 def split_gp_options(method, options):
     """The gp options popped from ``options`` (checked), refused with a method other than ``'gp'``.
 
+    With ``method='gp'`` the surface step's options left in ``options`` (any but
+    :data:`GP_USES` that is not None) are refused too: the gp in a solid has no
+    surface step, so they would do nothing.
+
     Examples
     --------
-    >>> opts = {"method": "gp", "trust": 2.0, "partition": "delaunay"}
+    >>> opts = {"method": "gp", "trust": 2.0, "duplicates": "mean"}
     >>> split_gp_options("gp", opts), opts
-    ({'trust': 2.0}, {'method': 'gp', 'partition': 'delaunay'})
+    ({'trust': 2.0}, {'method': 'gp', 'duplicates': 'mean'})
+    >>> split_gp_options("gp", {"method": "gp", "solver": "direct"})
+    Traceback (most recent call last):
+    ...
+    manifill.errors.OptionError: solver='direct' is an option of the surface step, which method='gp' in a solid ...
     >>> split_gp_options("harmonic", {"uncertainty": True})
     Traceback (most recent call last):
     ...
@@ -217,8 +231,13 @@ def split_gp_options(method, options):
 has no probability model); pass method='gp' or leave it out
     """
     gpo = {k: options.pop(k) for k in GP_KEYS if k in options}
-    if method == "gp":
-        check_uncertainty("gp", gpo.get("uncertainty"), gpo.get("trust"), gpo.get("untrusted", "mask"), None)
+    if method_of(method).gp_mean:
+        configure(method=method, uncertainty=gpo.get("uncertainty"), trust=gpo.get("trust"),
+                  untrusted=gpo.get("untrusted", "mask"))
+        for name, value in options.items():
+            if name not in GP_USES and value is not None:
+                raise OptionError(f"{name}={value!r} is an option of the surface step, which method='gp' in a solid "
+                                  f"does not run; leave it out (fill_solver, CLI --fill-solver, is the gp's solver)")
         return gpo
     for name, value in gpo.items():
         if not (value is None or value is False or (name == "untrusted" and value == "mask")):
@@ -243,12 +262,6 @@ def volume_gp(V, F, idx, vals, gpo, *, form, resolution, connectivity, max_volum
     in one voxel are averaged; ``report['merged']`` counts them, ``report['snap_max']`` is
     the largest distance moved, in voxels). ``fill_solver`` is the gp's solver.
     """
-    from scipy.spatial import cKDTree
-
-    from .tetrahedralize import tetrahedralize
-    from .voxels import voxel_centres
-    from .voxelize import voxelize
-
     kw = {"gp": gpo.get("gp"), "trust": gpo.get("trust"), "untrusted": gpo.get("untrusted", "mask"),
           "solver": fill_solver}
     _check_solver(fill_solver, "fill_solver")
@@ -257,7 +270,7 @@ def volume_gp(V, F, idx, vals, gpo, *, form, resolution, connectivity, max_volum
     if form == "tets":
         TV, TT = tetrahedralize(V, F, max_volume=max_volume)
         return finish(gp_tets(TV, TT, sidx, Y, **kw), gpo)
-    mask, spacing, origin = voxelize(V, F, resolution, allow_open=allow_open)
+    mask, spacing, origin = voxelize(V, F, resolution=resolution, allow_open=allow_open)
     fixed = boundary_voxels(mask, connectivity)
     on = np.argwhere(fixed)
     dist, near = cKDTree(voxel_centres(mask.shape, spacing, origin, where=fixed)).query(V[sidx])

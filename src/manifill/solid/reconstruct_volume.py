@@ -1,6 +1,6 @@
 """Steps 1-8 on a solid: reconstruct on its boundary surface D, then fill the inside.
 
-Three forms of solid, one result (:class:`VolumeReconstruction`):
+Three forms of solid, one result (:class:`~manifill.solid.volume_result.VolumeReconstruction`):
 
 ``reconstruct_volume(V, F, idx, vals, form=...)``
     A closed triangle mesh with samples at its vertices. Steps 1-6 run on the
@@ -19,22 +19,29 @@ Three forms of solid, one result (:class:`VolumeReconstruction`):
     from the smoothed mask. Steps 1-6 run on that graph with the paper's
     uniform averaging.
 
-Each refuses, before Steps 1-6, a volume predicted not to fit in memory
-(:mod:`manifill.solid.estimates`).
+One vocabulary for the three: the geometry and the samples first; then the
+options of the inside (Step 8), ``fill_solver`` and, for tets, ``fill_weights``,
+with the same names, sets and defaults in each; then ``**options``, the surface
+step (Steps 1-6) exactly as :func:`manifill.reconstruct` takes it (``method``,
+``weights``, ``solver``, ``curve_values``, ``bounds``, ...), forwarded unchanged.
+A digital surface has no triangles, so a mask's ``weights`` defaults to
+``'uniform'`` and refuses the others; ``method='gp'`` runs no surface step, and
+refuses its options. Each refuses, before Steps 1-6, a volume predicted not to
+fit in memory (:mod:`manifill.solid.estimates`).
 """
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import OptionError, SampleError
-from ..linalg.backends import SOLVERS
 from ..memory import check_fits
+from ..mesh.laplacian import WEIGHTS as SURFACE_WEIGHTS
 from ..mesh.objects import mesh_arrays
+from ..mesh.tetmesh import WEIGHTS as FILL_WEIGHTS
 from ..progress import tick
-from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result, with_std
-from ..surface.reconstruct import Reconstruction, check_options, reconstruct, reconstruct_surface
+from ..surface.methods.registry import method_of
+from ..surface.reconstruct import reconstruct, reconstruct_surface
 from ..validate import as_mask, as_samples, as_tets, as_voxels, check_option
 from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, surface_to_points,
                        surface_vertex_of_voxels)
@@ -43,139 +50,26 @@ from .estimates import (FORMS, TET_FILL_SOLVERS, check_fill_solver, mask_fill_es
 from .fill import FILL_SOLVERS, VoxelFill, tet_fill
 from .gp import finish, gp_tets, gp_voxels, split_gp_options, volume_gp
 from .tetrahedralize import tetrahedralize
-from .tets import boundary_faces, boundary_vertices
+from .tets import boundary_faces
+from .volume_result import VolumeReconstruction
 from .voxels import as_connectivity, as_origin, as_spacing, voxel_centres
 from .voxelize import voxelize
 
-__all__ = ["VolumeReconstruction", "reconstruct_volume", "reconstruct_volume_tets", "reconstruct_volume_mask"]
+__all__ = ["VolumeReconstruction", "reconstruct_volume", "reconstruct_volume_tets", "reconstruct_volume_mask",
+           "FILL_WEIGHTS", "MASK_WEIGHTS"]
+
+#: The surface weights a digital surface can use (it has no triangles for cotangents); its default.
+MASK_WEIGHTS = ("uniform",)
+#: Options of :func:`manifill.reconstruct` a voxel mask cannot take: its samples are voxels, not positions.
+_POSITION_OPTIONS = ("max_distance",)
+#: Keywords of ``reconstruct_surface`` that are the functions' own, not the caller's.
+_OWN = ("seconds", "points", "fields", "prepared")
 
 
-@dataclass
-class VolumeReconstruction(Result):
-    """The result of the ``reconstruct_volume`` functions (a :class:`manifill.results.Result`).
 
-    Attributes
-    ----------
-    values : numpy array
-        ``form='voxels'``: shaped like ``mask`` (plus a field axis for several
-        fields), NaN outside the solid. ``form='tets'``: one row per vertex of
-        ``TV``.
-    form : {'voxels', 'tets'}
-    surface : Reconstruction
-        Steps 1-6 on the boundary surface (on the digital surface for a mask:
-        its vertices are ``surface_voxels``); None with ``method='gp'`` (no surface pass).
-    mask : (n0, n1, n2) bool numpy array or None
-    spacing, origin : (3,) numpy arrays or None
-        The grid: voxel ``(i, j, k)`` is at ``origin + (i, j, k) * spacing``.
-    fixed : (n0, n1, n2) bool numpy array or None
-        The voxels whose values came from the surface (D).
-    TV : (N, 3) numpy array or None
-    TT : (M, 4) int64 numpy array or None
-    surface_voxels : (d, 3) int64 numpy array or None
-        For a mask: the voxel of each vertex of the digital surface.
-    report : dict
-        Counts, the fill's solver report and ``seconds`` per step.
-    samples : numpy array or None
-        Where the samples are in the solid: tets, the ``(k,)`` vertices of
-        ``TV``; a mask, the ``(k, 3)`` sampled voxels; a voxelised surface,
-        None (its samples are surface vertices, not voxels).
-    std, trusted : numpy arrays or None
-        ``method='gp'`` (:mod:`manifill.solid.gp`): the posterior std, shaped like ``values``
-        (written as ``<field>_std``), and with ``trust=`` the ``trusted`` mask.
-
-    Examples
-    --------
-    >>> x, y, z = np.indices((12, 12, 12)) - 5.5
-    >>> mask = x**2 + y**2 + z**2 < 25
-    >>> on = np.argwhere(boundary_voxels(mask))[::7]
-    >>> r = reconstruct_volume_mask(mask, on, on[:, 2] * 1.0)
-    >>> sorted(r.point_data(["t"]))
-    ['boundary_mask', 't']
-    """
-
-    values: np.ndarray
-    form: str
-    surface: Reconstruction
-    mask: np.ndarray = None
-    spacing: np.ndarray = None
-    origin: np.ndarray = None
-    fixed: np.ndarray = None
-    TV: np.ndarray = None
-    TT: np.ndarray = None
-    surface_voxels: np.ndarray = None
-    report: dict = field(default_factory=dict)
-    samples: np.ndarray = None
-    std: np.ndarray = None
-    trusted: np.ndarray = None
-
-    @property
-    def point_ndim(self):
-        """Leading axes of ``values`` that index points: 3 for voxels, 1 for tet vertices."""
-        return 3 if self.form == "voxels" else 1
-
-    def masks(self):
-        """The boundary mask D, and for tets the sample mask, by name.
-
-        Returns
-        -------
-        dict of str to numpy array
-            Voxels: ``{BOUNDARY_MASK: fixed}``, (n0, n1, n2) bool. Tets:
-            ``BOUNDARY_MASK`` (the vertices of :func:`manifill.solid.tets.boundary_faces`)
-            and ``SAMPLE_MASK`` (the sample vertices), (N,) bool.
-        """
-        extra = {} if self.trusted is None else {TRUSTED: self.trusted}
-        if self.form == "voxels":
-            return {BOUNDARY_MASK: self.fixed, **extra}
-        boundary = np.zeros(len(self.TV), dtype=bool)
-        boundary[boundary_vertices(self.TT)] = True
-        sample = np.zeros(len(self.TV), dtype=bool)
-        if self.samples is not None:
-            sample[self.samples] = True
-        return {BOUNDARY_MASK: boundary, SAMPLE_MASK: sample, **extra}
-
-    def point_data(self, names=None):
-        """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
-        return with_std(super().point_data(names), self.std, names, self.point_ndim)
-
-    def to_pyvista(self, names=None):
-        """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).
-
-        Needs the ``[viz]`` extra. Voxel ``(i, j, k)`` is the point at ``origin + (i, j, k) * spacing``.
-        """
-        from ..mesh.objects import to_pyvista
-
-        data = self.point_data(names)
-        if self.form == "tets":
-            return to_pyvista(self.TV, self.TT, data)
-        try:
-            import pyvista as pv
-        except ImportError:
-            raise ImportError("converting to pyvista needs pyvista: pip install 'manifill[viz]'") from None
-        img = pv.ImageData(dimensions=self.mask.shape, spacing=tuple(self.spacing), origin=tuple(self.origin))
-        for name, arr in data.items():
-            arr = np.asarray(arr)
-            arr = arr.astype(np.uint8) if arr.dtype == bool else arr
-            img.point_data[name] = arr.reshape(-1, order="F")  # x fastest, as VTK orders points
-        return img
-
-    def to_meshio(self, names=None):
-        """The tetrahedral solid as a ``meshio.Mesh`` (voxels: use :meth:`to_pyvista` or ``write_vti``)."""
-        from ..mesh.objects import to_meshio
-
-        if self.form != "tets":
-            raise OptionError("a voxel result has no meshio form; use to_pyvista() or manifill.io.solids.write_vti")
-        return to_meshio(self.TV, self.TT, self.point_data(names))
-
-
-def _surface_options(options):
-    allowed = {"method", "partition", "weights", "distance", "levels", "curve_values", "solver", "on_empty",
-               "duplicates", "iteration", "init", "seed", "tol", "maxiter", "progress"}
-    bad = sorted(set(options) - allowed)
-    if bad:
-        raise TypeError(f"unexpected keyword argument {bad[0]!r}; the surface options are those of "
-                        f"manifill.reconstruct: {', '.join(sorted(allowed))}")
-    return options
-
+def _solid_gp(options):
+    """Whether ``options`` ask for the Gaussian process, which in a solid covers the whole solid at once."""
+    return method_of(options.get("method")).gp_mean
 
 def _equals(value, default):
     try:
@@ -184,17 +78,38 @@ def _equals(value, default):
         return False
 
 
-def _check_form_options(form, resolution, connectivity, max_volume, fill_weights, allow_open):
-    """Refuse an option of the other form set to anything but its default: it would do nothing."""
-    if form == "tets":
-        other, given = "voxels", {"resolution": (resolution, 128), "connectivity": (connectivity, 6),
-                                  "allow_open": (allow_open, False)}
-    else:
-        other, given = "tets", {"max_volume": (max_volume, None), "fill_weights": (fill_weights, "cotan")}
+def _check_form_options(form, **given):
+    """Refuse an option of the other form set to anything but its default: it would do nothing.
+
+    ``given`` maps each name to ``(value, default)``; ``form`` is the form run.
+    """
+    other = "voxels" if form == "tets" else "tets"
     for name, (value, default) in given.items():
         if not _equals(value, default):
             raise OptionError(f"{name}={value!r} is for form={other!r} and does nothing with form={form!r}; "
                               f"drop it or pass form={other!r}")
+
+
+def _check_fill(form, fill_solver, fill_weights="cotan"):
+    """The inside's options, the same names and sets for every entry point.
+
+    ``fill_solver`` from :data:`~manifill.solid.fill.FILL_SOLVERS` (voxels) or
+    :data:`~manifill.solid.estimates.TET_FILL_SOLVERS` (tets); ``fill_weights`` from
+    :data:`FILL_WEIGHTS`, and at its default for voxels (their weights come from the spacing).
+    """
+    solvers = FILL_SOLVERS if form == "voxels" else TET_FILL_SOLVERS
+    check_fill_solver(fill_solver, solvers)
+    check_option("fill_solver", fill_solver, solvers)
+    if form == "voxels":
+        _check_form_options("voxels", fill_weights=(fill_weights, "cotan"))
+    check_option("fill_weights", fill_weights, FILL_WEIGHTS)
+
+
+def _refuse_own(options):
+    """Refuse the keywords ``reconstruct_surface`` takes from these functions, not from their callers."""
+    own = sorted(set(options) & set(_OWN))
+    if own:
+        raise OptionError(f"no option {own[0]!r} (it is the function's own); see help(manifill.reconstruct)")
 
 
 def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connectivity=6, max_volume=None,
@@ -221,18 +136,19 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     max_volume : float, optional
         Largest tetrahedron volume in the units of ``V`` (``form='tets'``).
     fill_solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
-        Solver of the fill. ``auto``: ``multigrid`` for voxels; for tets
-        ``direct`` up to :data:`manifill.solid.fill.AUTO_DIRECT_MAX` free vertices,
-        ``amg`` above. ``multigrid`` is for voxels only: with ``form='tets'`` it
-        is an :class:`~manifill.errors.OptionError`.
+        Solver of the inside (Step 8). ``auto``: ``multigrid`` for voxels; for
+        tets ``direct`` up to :data:`manifill.solid.fill.AUTO_DIRECT_MAX` free
+        vertices, ``amg`` above. ``multigrid`` is for voxels only.
     fill_weights : {'cotan', 'uniform'}, optional
-        Tetrahedral weights (``form='tets'``).
+        Weights of the inside's tetrahedral Laplacian (``form='tets'``).
     allow_open : bool, optional
         Voxelise an open surface by winding numbers instead of refusing it.
     **options
-        Passed to :func:`manifill.reconstruct` for Steps 1-6 (``method``,
-        ``partition``, ``weights``, ``curve_values``, ...). ``method='gp'`` (with ``gp``, ``uncertainty``,
-        ``trust``, ``untrusted``): the gp over the solid, no surface pass (:func:`manifill.solid.gp.volume_gp`).
+        Steps 1-6, exactly as :func:`manifill.reconstruct` takes them (``method``,
+        ``partition``, ``weights``, ``solver``, ``curve_values``, ``bounds``, ...),
+        forwarded unchanged. ``method='gp'`` (with ``gp``, ``uncertainty``,
+        ``trust``, ``untrusted``, ``duplicates``): the gp over the solid, no
+        surface pass (:func:`manifill.solid.gp.volume_gp`; ``fill_solver`` its solver).
 
     Returns
     -------
@@ -247,9 +163,12 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
         (:func:`manifill.solid.estimates.reconstruct_volume_memory`); checked before Steps 1-6.
     OptionError
         An option outside its set, ``fill_solver='multigrid'`` with ``form='tets'``,
-        or an option of the other form (``resolution``, ``connectivity``,
+        an option of the other form (``resolution``, ``connectivity``,
         ``allow_open`` with tets; ``max_volume``, ``fill_weights`` with voxels)
-        set to anything but its default: it would be ignored.
+        set to anything but its default (it would be ignored), or a surface
+        option with ``method='gp'``.
+    OptionError or TypeError
+        A keyword :func:`manifill.reconstruct` does not take, refused as it refuses it.
     SampleError, SolveError
         As the steps they come from.
     ImportError
@@ -265,42 +184,55 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     ((26, 26, 26), True)
     """
     check_option("form", form, FORMS)
-    check_fill_solver(fill_solver, FILL_SOLVERS if form == "voxels" else TET_FILL_SOLVERS)
-    _check_form_options(form, resolution, connectivity, max_volume, fill_weights, allow_open)
+    _check_fill(form, fill_solver, fill_weights)
+    if form == "tets":
+        _check_form_options("tets", resolution=(resolution, 128), connectivity=(connectivity, 6),
+                            allow_open=(allow_open, False))
+    else:
+        _check_form_options("voxels", max_volume=(max_volume, None))
     V, F = mesh_arrays(V, F)
     gpo = split_gp_options(options.get("method"), options)
-    _surface_options(options)
     # refuse a volume that will not fit before Steps 1-6 on the surface
     check_fits(*volume_estimate(V, F, form, resolution, connectivity, max_volume, fill_solver, n_fields(vals)))
-    if options.get("method") == "gp":  # the gp over the whole solid, no surface pass
+    if _solid_gp(options):  # the gp over the whole solid, no surface pass
         return volume_gp(V, F, idx, vals, gpo, form=form, resolution=resolution, connectivity=connectivity,
-                            max_volume=max_volume, allow_open=allow_open, fill_solver=fill_solver,
-                            duplicates=options.get("duplicates", "error"))
+                         max_volume=max_volume, allow_open=allow_open, fill_solver=fill_solver,
+                         duplicates=options.get("duplicates", "error"))
     t0 = time.perf_counter()
     surf = reconstruct(V, F, idx, vals, **options)
     seconds = {"surface": time.perf_counter() - t0}
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
+    V, F = np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64)
     progress = options.get("progress")
     if form == "voxels":
-        connectivity = as_connectivity(connectivity)
-        tick(progress, "voxelize")
-        t = time.perf_counter()
-        mask, spacing, origin = voxelize(V, F, resolution, allow_open=allow_open)
-        fixed = boundary_voxels(mask, connectivity)
-        bc, dist = surface_to_points(V, F, surf.values, voxel_centres(mask.shape, spacing, origin, where=fixed))
-        seconds["voxelize"] = time.perf_counter() - t
-        tick(progress, "fill")
-        # bc is in the order of np.argwhere(fixed), as voxel_centres(where=fixed) lists them
-        fill = VoxelFill(mask, np.argwhere(fixed), spacing=spacing, connectivity=connectivity, solver=fill_solver)
-        values = fill.solve(bc)
-        seconds["fill"] = sum(fill.report["seconds"].values())
-        report = {"fill": fill.report, "resolution": int(resolution), "shape": list(mask.shape),
-                  "boundary_distance_max": float(dist.max() / spacing[0]) if dist.size else 0.0,
-                  "seconds": seconds}
-        seconds["total"] = time.perf_counter() - t0
-        return VolumeReconstruction(values, "voxels", surf, mask=mask, spacing=spacing, origin=origin, fixed=fixed,
-                                    report=report)
+        r = _fill_voxelised(V, F, surf, resolution, as_connectivity(connectivity), allow_open, fill_solver,
+                            progress, seconds)
+    else:
+        r = _fill_tetrahedralised(V, F, surf, max_volume, fill_weights, fill_solver, progress, seconds)
+    seconds["total"] = time.perf_counter() - t0
+    return r
+
+
+def _fill_voxelised(V, F, surf, resolution, connectivity, allow_open, fill_solver, progress, seconds):
+    """Step 8 of :func:`reconstruct_volume` with ``form='voxels'``: voxelise, carry the surface field to D, fill."""
+    tick(progress, "voxelize")
+    t = time.perf_counter()
+    mask, spacing, origin = voxelize(V, F, resolution=resolution, allow_open=allow_open)
+    fixed = boundary_voxels(mask, connectivity)
+    bc, dist = surface_to_points(V, F, surf.values, voxel_centres(mask.shape, spacing, origin, where=fixed))
+    seconds["voxelize"] = time.perf_counter() - t
+    tick(progress, "fill")
+    # bc is in the order of np.argwhere(fixed), as voxel_centres(where=fixed) lists them
+    fill = VoxelFill(mask, np.argwhere(fixed), spacing=spacing, connectivity=connectivity, solver=fill_solver)
+    values = fill.solve(bc)
+    seconds["fill"] = sum(fill.report["seconds"].values())
+    report = {"fill": fill.report, "resolution": int(resolution), "shape": list(mask.shape),
+              "boundary_distance_max": float(dist.max() / spacing[0]) if dist.size else 0.0, "seconds": seconds}
+    return VolumeReconstruction(values, "voxels", surf, mask=mask, spacing=spacing, origin=origin, fixed=fixed,
+                                report=report)
+
+
+def _fill_tetrahedralised(V, F, surf, max_volume, fill_weights, fill_solver, progress, seconds):
+    """Step 8 of :func:`reconstruct_volume` with ``form='tets'``: tetrahedralise (surface kept), fill."""
     tick(progress, "tetrahedralize")
     t = time.perf_counter()
     TV, TT = tetrahedralize(V, F, max_volume=max_volume)
@@ -309,13 +241,12 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     t = time.perf_counter()
     values = tet_fill(TV, TT, np.arange(len(V)), surf.values, weights=fill_weights, solver=fill_solver)
     seconds["fill"] = time.perf_counter() - t
-    seconds["total"] = time.perf_counter() - t0
     report = {"vertices": len(TV), "tets": len(TT), "seconds": seconds}
     # tetgen keeps the surface's vertices first, so the sample vertices are vertices of TV
     return VolumeReconstruction(values, "tets", surf, TV=TV, TT=TT, report=report, samples=surf.idx)
 
 
-def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solver="auto", **options):
+def reconstruct_volume_tets(V, T, idx, vals, *, fill_solver="auto", fill_weights="cotan", **options):
     """Steps 1-8 on a tetrahedral mesh: reconstruct on its boundary triangles, fill the tets.
 
     Parameters
@@ -326,12 +257,16 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
         Sample vertices of ``V``, all on the boundary.
     vals : (k,) or (k, p) array_like of float
     fill_weights : {'cotan', 'uniform'}, optional
-    fill_solver : {'auto', 'direct', 'amg', 'iterate'}, optional
-        ``auto``: ``direct`` up to :data:`manifill.solid.fill.AUTO_DIRECT_MAX` free
+        Weights of the inside's tetrahedral Laplacian, as :func:`reconstruct_volume`.
+    fill_solver : {'auto', 'amg', 'direct'}, optional
+        Solver of the inside, as :func:`reconstruct_volume` with ``form='tets'``:
+        ``auto`` is ``direct`` up to :data:`manifill.solid.fill.AUTO_DIRECT_MAX` free
         vertices, ``amg`` above (``multigrid`` is for voxels: an OptionError here).
     **options
-        Passed to :func:`manifill.reconstruct` for Steps 1-6; ``method='gp'`` (with ``gp``, ``uncertainty``,
-        ``trust``, ``untrusted``): the gp over the tets, samples anywhere (:func:`manifill.solid.gp.gp_tets`).
+        Steps 1-6 on the boundary triangles, exactly as :func:`manifill.reconstruct`
+        takes them, forwarded unchanged; ``method='gp'`` (with ``gp``, ``uncertainty``,
+        ``trust``, ``untrusted``, ``duplicates``): the gp over the tets, samples anywhere
+        (:func:`manifill.solid.gp.gp_tets`; ``fill_solver`` its solver).
 
     Returns
     -------
@@ -346,7 +281,9 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
         The fill is predicted not to fit in the memory available
         (:func:`manifill.solid.fill.tet_fill_memory`); checked before Steps 1-6.
     OptionError
-        An option outside its set.
+        An option outside its set, or a surface option with ``method='gp'``.
+    OptionError or TypeError
+        A keyword :func:`manifill.reconstruct` does not take, refused as it refuses it.
 
     Examples
     --------
@@ -358,17 +295,17 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
     >>> r.values.shape == (len(TV),), int(r.point_data()["sample_mask"].sum())
     (True, 41)
     """
+    _check_fill("tets", fill_solver, fill_weights)
     gpo = split_gp_options(options.get("method"), options)
-    _surface_options(options)
-    if options.get("method") == "gp":  # the gp over the tets, samples anywhere
+    if _solid_gp(options):  # the gp over the tets, samples anywhere
         return finish(gp_tets(V, T, idx, vals, gp=gpo.get("gp"), trust=gpo.get("trust"), solver=fill_solver,
-                                    untrusted=gpo.get("untrusted", "mask")), gpo)
+                              untrusted=gpo.get("untrusted", "mask"), duplicates=options.get("duplicates", "error")),
+                      gpo)
     t0 = time.perf_counter()
     V, T = as_tets(V, T, allow_degenerate=fill_weights == "uniform")
     n = len(V)
     bf = boundary_faces(T, V=V)
     on_d = np.unique(bf)
-    check_fill_solver(fill_solver, SOLVERS)
     check_fits(*tet_mesh_fill_estimate(n, len(T), on_d.size, fill_solver))
     idx_arr, vals2, squeeze = as_samples(idx, vals, n, duplicates=options.get("duplicates", "error"))
     inside = np.setdiff1d(idx_arr, on_d)
@@ -390,10 +327,7 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_weights="cotan", fill_solve
 
 
 def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6,
-                            fill_solver="auto", method=None, partition="delaunay", weights="uniform",
-                            distance="length", levels=None, curve_values=None, solver="auto",
-                            duplicates="error", progress=None, gp=None, uncertainty=None, trust=None,
-                            untrusted="mask"):
+                            fill_solver="auto", **options):
     """Steps 1-8 on a voxel mask: reconstruct on its digital boundary surface, fill the inside.
 
     Parameters
@@ -408,19 +342,17 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     connectivity : {6, 18, 26}, optional
         Neighbours of the fill (and which voxels are boundary).
     fill_solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
+        Solver of the inside, as :func:`reconstruct_volume` with ``form='voxels'``:
         ``auto`` is ``multigrid``.
-    weights : {'uniform'}, optional
-        Weights of the patches' harmonic fill (Steps 5-6): only ``uniform`` (the
-        paper's average), since a digital surface has no triangles for
-        cotangents; any other weight name is an OptionError.
-    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
-        Linear solver of the patches' harmonic fill, as :func:`manifill.reconstruct`.
-    progress : callable, optional
-        Told the name of each step as it starts.
-    method, partition, distance, levels, curve_values, duplicates
-        Steps 1-6, as :func:`manifill.reconstruct`.
-    gp, uncertainty, trust, untrusted
-        ``method='gp'`` only: the gp over the voxels, samples anywhere in the mask
+    **options
+        Steps 1-6 on the digital surface, exactly as :func:`manifill.reconstruct`
+        takes them (``method``, ``partition``, ``solver``, ``curve_values``,
+        ``bounds``, ``progress``, ...), forwarded unchanged; ``distance`` shapes the
+        digital surface's graph and ``duplicates`` merges the samples, as there.
+        ``weights`` defaults to ``'uniform'`` (the paper's average), the one weight
+        a digital surface can use: it has no triangles for cotangents, so any other
+        is an OptionError. ``method='gp'`` (with ``gp``, ``uncertainty``, ``trust``,
+        ``untrusted``): the gp over the voxels, samples anywhere in the mask
         (:func:`manifill.solid.gp.gp_voxels`, ``fill_solver`` its solver).
 
     Returns
@@ -436,7 +368,12 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     MeshError
         A malformed ``spacing`` or ``origin``.
     OptionError
-        An option outside its set, or ``weights`` other than ``uniform``.
+        An option outside its set, ``weights`` other than ``uniform``, ``fill_weights``
+        other than its default (a voxel fill's weights come from the spacing),
+        ``max_distance`` (the samples are voxels, not positions), or a surface option
+        with ``method='gp'``.
+    OptionError or TypeError
+        A keyword :func:`manifill.reconstruct` does not take, refused as it refuses it.
     ResourceError
         The fill is predicted not to fit in the memory available; checked
         before Steps 1-6.
@@ -445,51 +382,64 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     --------
     >>> x, y, z = np.indices((20, 20, 20)) - 9.5
     >>> mask = x**2 + y**2 + z**2 < 81
-    >>> from manifill.solid.boundary import boundary_voxels
     >>> on = np.argwhere(boundary_voxels(mask))[::9]
     >>> r = reconstruct_volume_mask(mask, on, on[:, 0] * 1.0)
     >>> bool(np.allclose(r.values[tuple(on.T)], on[:, 0]))
     True
     """
     t0 = time.perf_counter()
-    check_options(method, partition, weights, distance, curve_values, solver, "error", "gauss-seidel", "gvf")
-    if weights != "uniform":
-        raise OptionError(f"weights={weights!r} needs triangles, and a digital surface has none; pass "
-                          f"weights='uniform' (the paper's average), or a triangle mesh of the solid")
+    _check_fill("voxels", fill_solver)
+    _check_mask_options(options)
     mask = as_mask(mask)
     connectivity = as_connectivity(connectivity)
     h = as_spacing(spacing)
-    check_fill_solver(fill_solver, FILL_SOLVERS)
     # before the digital surface and Steps 1-6
     check_fits(*mask_fill_estimate(mask, fill_solver, connectivity))
-    gpo = split_gp_options(method, {"gp": gp, "uncertainty": uncertainty, "trust": trust, "untrusted": untrusted})
-    if method == "gp":  # the gp over the voxels, samples anywhere in the mask
-        return finish(gp_voxels(mask, voxels, vals, spacing=h, origin=origin, connectivity=connectivity, gp=gp,
-                                    trust=trust, untrusted=untrusted, solver=fill_solver, duplicates=duplicates), gpo)
-    on_d, P, E, normals = digital_surface(mask, h, origin, connectivity)
+    gpo = split_gp_options(options.get("method"), options)
+    duplicates = options.pop("duplicates", "error")
+    if _solid_gp(options):  # the gp over the voxels, samples anywhere in the mask
+        return finish(gp_voxels(mask, voxels, vals, spacing=h, origin=origin, connectivity=connectivity,
+                                gp=gpo.get("gp"), trust=gpo.get("trust"), untrusted=gpo.get("untrusted", "mask"),
+                                solver=fill_solver, duplicates=duplicates), gpo)
+    on_d, P, E, normals = digital_surface(mask, spacing=h, origin=origin, connectivity=connectivity)
     voxels = as_voxels(voxels, mask.shape, unique=False)  # repeats are merged (or refused) by duplicates
-    where = surface_vertex_of_voxels(on_d, voxels, mask.shape)
-    sidx, svals, squeeze = as_samples(where, vals, len(on_d), duplicates=duplicates)
+    sidx, svals, squeeze = as_samples(surface_vertex_of_voxels(on_d, voxels, mask.shape), vals, len(on_d),
+                                      duplicates=duplicates)
     seconds = {"validate": time.perf_counter() - t0}
     t = time.perf_counter()
-    surface = digital_surface_graph(P, E, normals, distance=distance)
+    surface = digital_surface_graph(P, E, normals, distance=options.pop("distance", "length"))
     seconds["graph"] = time.perf_counter() - t
-    surf = reconstruct_surface(surface, sidx, svals, method=method, partition=partition, weights="uniform",
-                               levels=levels, curve_values=curve_values, solver=solver, on_empty="error",
-                               iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None,
-                               progress=progress, seconds=seconds)
+    surf = reconstruct_surface(surface, sidx, svals, seconds=seconds, **{"weights": "uniform", **options})
     if squeeze:
         surf.values = surf.values[:, 0]
     fixed = np.zeros(mask.shape, dtype=bool)
     fixed[tuple(on_d.T)] = True
-    tick(progress, "fill")
+    tick(options.get("progress"), "fill")
     t = time.perf_counter()
     fill = VoxelFill(mask, on_d, spacing=h, connectivity=connectivity, solver=fill_solver)
     values = fill.solve(surf.values)  # one row per vertex of the digital surface, i.e. per voxel of on_d
     seconds = dict(surf.report["seconds"])
     seconds["fill"] = time.perf_counter() - t
     seconds["total"] = time.perf_counter() - t0
-    return VolumeReconstruction(values, "voxels", surf, mask=mask, spacing=h,
-                                origin=as_origin(origin), fixed=fixed, surface_voxels=on_d,
-                                report={"fill": fill.report, "shape": list(mask.shape), "seconds": seconds},
-                                samples=on_d[sidx])
+    return VolumeReconstruction(values, "voxels", surf, mask=mask, spacing=h, origin=as_origin(origin), fixed=fixed,
+                                surface_voxels=on_d, report={"fill": fill.report, "shape": list(mask.shape),
+                                                             "seconds": seconds}, samples=on_d[sidx])
+
+
+def _check_mask_options(options):
+    """Refuse, before any work, what a voxel mask cannot use: tet weights, triangle weights, positions."""
+    _refuse_own(options)
+    fill_weights = options.pop("fill_weights", "cotan")
+    if not _equals(fill_weights, "cotan"):
+        raise OptionError(f"fill_weights={fill_weights!r} is for tetrahedra, and a voxel fill takes its weights from "
+                          f"the spacing; leave it out")
+    weights = options.get("weights", "uniform")
+    if not _solid_gp(options) and weights not in MASK_WEIGHTS:
+        check_option("weights", weights, SURFACE_WEIGHTS)
+        raise OptionError(f"weights={weights!r} needs triangles, and a digital surface has none; pass "
+                          f"weights='uniform' (the paper's average, the default here), or a triangle mesh of the "
+                          f"solid")
+    for name in _POSITION_OPTIONS:
+        if options.get(name) is not None:
+            raise OptionError(f"{name}={options[name]!r} is for samples given as positions, and a mask's samples "
+                              f"are voxels (grid indices); leave it out")

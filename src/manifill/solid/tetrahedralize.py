@@ -21,8 +21,9 @@ import numpy as np
 from ..errors import MeshError, OptionError, ResourceError
 from ..memory import check_fits
 from ..mesh.edges import edges
+from ..mesh.tetmesh import negative_tets
 from ..validate import as_mesh, unit_scale
-from .tets import boundary_faces, negative_tets, rows_once, unit_volume
+from .tets import boundary_faces, rows_once, unit_volume
 
 __all__ = ["tetrahedralize", "tet_count", "tetrahedralize_memory", "check_max_volume", "tet_count_on_mesh",
            "tet_words"]

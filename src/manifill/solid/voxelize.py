@@ -12,6 +12,7 @@ import math
 import numbers
 
 import numpy as np
+from scipy import ndimage
 
 from ..errors import MeshError, OptionError, ResourceError, SampleError
 from ..memory import check_fits
@@ -46,8 +47,6 @@ def _surface_band(V, F, shape, h, origin):
             ijk = np.rint((P - origin) / h).astype(np.int64)
             ijk = np.clip(ijk, 0, np.array(shape) - 1)
             band[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
-    from scipy import ndimage
-
     return ndimage.binary_dilation(band, np.ones((3, 3, 3), dtype=bool))
 
 
@@ -262,7 +261,7 @@ def _exact_shift(V, Q):
     return np.where(ok, c, 0.0)
 
 
-def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
+def voxelize(V, F, *, resolution=128, allow_open=False, padding=1):
     """Voxelise the solid bounded by a closed triangle mesh.
 
     A voxel is inside when the generalised winding number of the surface at its
@@ -333,8 +332,6 @@ def voxelize(V, F, resolution=128, *, allow_open=False, padding=1):
     # crash at 1e150); dividing by the power of two s is exact, so the band and mask do not change
     s = unit_scale(V)
     band = _surface_band(V / s, F, shape, h / s, origin / s)
-    from scipy import ndimage
-
     labels, count = ndimage.label(~band)
     first = np.full(count + 1, -1, dtype=np.int64)
     flat = labels.ravel()

@@ -27,6 +27,7 @@ import numbers
 
 import numpy as np
 import scipy.sparse as sp
+from scipy import ndimage
 
 from ..errors import OptionError
 from ..validate import as_origin, as_spacing, unit_scale
@@ -180,8 +181,6 @@ def voxel_components(mask, connectivity=6):
     labels : (n0, n1, n2) int numpy array
         ``0`` outside the mask, ``1..count`` inside.
     """
-    from scipy import ndimage
-
     rank = {6: 1, 18: 2, 26: 3}[as_connectivity(connectivity)]
     labels, count = ndimage.label(mask, structure=ndimage.generate_binary_structure(3, rank))
     return int(count), labels

@@ -25,108 +25,55 @@ table. For other folds or candidates, call :func:`cross_validate` and pass
 ``**cv.best_options`` to :func:`manifill.reconstruct`.
 """
 
-import time
-
 import numpy as np
 
-from ..errors import ManifillError, OptionError, SampleError, SolveError
-from ..progress import tick
-from ..validate import check_option
+from ..errors import OptionError, SampleError
+from ..validate import as_mesh, as_samples, as_values, check_option
 from .crossval_result import CrossValidation
-from .energy_fill import ENERGY_METHODS
+from .engine import reconstruct_surface
+from .folds import MIN_SAMPLES, fold_labels, label_of, run_folds
 from .locate import locate_points
-from .points import is_positions, point_samples
-from .reconstruct import METHODS, check_options, reconstruct_surface
+from .methods.auto import AUTO_CANDIDATES, AUTO_FOLDS
+from .methods.registry import configure, method_of, names
+from .points import is_positions
 from .surface import Surface
 
 __all__ = ["CANDIDATES", "AUTO_CANDIDATES", "AUTO_FOLDS", "MIN_SAMPLES", "CrossValidation", "cross_validate",
-           "fold_labels", "reconstruct_auto"]
+           "fold_labels", "candidates_of"]
 
 #: The default candidates: ``(method, options)``.
 CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"}), ("harmonic", {}),
               ("biharmonic", {}), ("biharmonic", {"bounds": "samples"}), ("triharmonic", {}), ("rbf", {}))
-#: The candidates of ``method="auto"``: the default ones less the bounded biharmonic, whose active set costs
-#: 5-20x the others per fold at 41k vertices (docs/NOTES.md), so that ``auto`` costs a few times one fit.
-AUTO_CANDIDATES = tuple(c for c in CANDIDATES if c != ("biharmonic", {"bounds": "samples"}))
-#: Folds of ``method="auto"``.
-AUTO_FOLDS = 5
-#: Fewest samples cross-validation accepts (every fit then has at least two).
-MIN_SAMPLES = 3
 #: The options of :func:`cross_validate` besides its own, passed to every fit.
 FIT_OPTIONS = ("partition", "weights", "levels", "curve_values", "solver", "iteration", "init", "tol", "maxiter",
                "bounds", "smoothing", "sample_weights")
 #: Options that shape the surface or the samples, not a fit (refused per candidate).
 SURFACE_OPTIONS = ("distance", "duplicates", "max_distance")
-#: The methods that constrain samples given as positions where they are (the others use the nearest vertex).
-AT_POINTS = tuple(ENERGY_METHODS) + ("rbf",)
-
-
-def fold_labels(k, folds, seed=0):
-    """The fold of each of ``k`` samples: a seeded random split into near-equal groups, or one each (``"loo"``).
-
-    Parameters
-    ----------
-    k : int
-        Number of samples.
-    folds : int >= 2 or 'loo'
-    seed : int, optional
-
-    Returns
-    -------
-    (k,) int64 numpy array
-        Values ``0 .. folds-1``, each used ``k // folds`` or ``k // folds + 1`` times.
-
-    Raises
-    ------
-    OptionError
-        ``folds`` not an int >= 2 or ``'loo'``.
-    SampleError
-        Fewer samples than folds (or than :data:`MIN_SAMPLES`), naming the number needed.
-
-    Examples
-    --------
-    >>> np.bincount(fold_labels(11, 3)).tolist(), fold_labels(4, "loo").tolist()
-    ([4, 4, 3], [0, 1, 2, 3])
-    """
-    loo = isinstance(folds, str)
-    if loo and folds != "loo" or not loo and (isinstance(folds, bool) or not isinstance(folds, (int, np.integer))
-                                              or folds < 2):
-        raise OptionError(f"folds={folds!r} is not an integer >= 2 or 'loo'; pass one of those")
-    need = MIN_SAMPLES if loo else max(int(folds), MIN_SAMPLES)
-    if k < need:
-        fix = (f"use {k} folds or fewer, or leave-one-out ('loo')" if k >= MIN_SAMPLES else
-               f"add samples (cross-validation needs at least {MIN_SAMPLES})")
-        raise SampleError(f"{'leave-one-out' if loo else f'{folds}-fold'} cross-validation needs at least {need} "
-                          f"samples, got {k}; {fix}")
-    if loo:
-        return np.arange(k, dtype=np.int64)
-    labels = np.empty(k, dtype=np.int64)
-    labels[np.random.default_rng(seed).permutation(k)] = np.arange(k) % int(folds)
-    return labels
 
 
 def candidates_of(methods, digital=False):
     """``{label: (method, options)}`` from names or ``(name, options)`` pairs (None: :data:`CANDIDATES`)."""
     given = methods is not None
     if methods is None:
-        methods = [c for c in CANDIDATES if not (digital and c[0] in ("biharmonic", "triharmonic"))]
+        methods = [c for c in CANDIDATES if not (digital and method_of(c[0]).needs_triangles)]
     if isinstance(methods, str) or isinstance(methods, tuple) and len(methods) == 2 and isinstance(methods[1], dict):
         methods = [methods]  # one candidate alone
     out = {}
-    allowed = [m for m in METHODS if m != "auto"]
+    allowed = [m for m in names(presets=False) if not method_of(m).delegates]
     for c in methods:
         name, opts = (c, {}) if isinstance(c, str) else (tuple(c) if isinstance(c, (tuple, list)) else (None, None))
         if not isinstance(name, str) or not isinstance(opts, dict):
             raise OptionError(f"methods entry {c!r} is neither a method name nor a (name, options-dict) pair; "
                               f"pass e.g. ['harmonic', ('biharmonic', {{'bounds': 'samples'}})]")
-        if name == "auto":
-            raise OptionError("method='auto' is what cross-validation chooses for; list actual methods as candidates")
+        if name in names() and method_of(name).delegates:
+            raise OptionError(f"method={name!r} is what cross-validation chooses for; list actual methods as "
+                              f"candidates")
         check_option("method", name, allowed)
         bad = [key for key in opts if key not in FIT_OPTIONS]
         if bad:
             raise OptionError(f"candidate {name!r} has option {bad[0]!r}, not one a fit takes "
                               f"({', '.join(FIT_OPTIONS)}); pass surface options to cross_validate itself")
-        label = " ".join([name] + [f"{k}={v}" for k, v in opts.items()])
+        label = label_of(name, opts)
         if label in out:
             raise OptionError(f"candidate {label!r} is listed twice; list each once")
         out[label] = (name, dict(opts))
@@ -134,12 +81,12 @@ def candidates_of(methods, digital=False):
         raise OptionError("methods is empty; pass at least one candidate (or None for the defaults)")
     if given and digital:
         for label, (name, _) in out.items():
-            if name in ("biharmonic", "triharmonic"):
+            if method_of(name).needs_triangles:
                 raise OptionError(f"candidate {label!r} needs triangles; a digital surface has none: leave it out")
     return out
 
 
-def cross_validate(V, F, idx, vals, methods=None, folds=10, seed=0, **options):
+def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options):
     """Each method's K-fold (or leave-one-out) error on the samples themselves.
 
     Parameters
@@ -196,190 +143,35 @@ def cross_validate(V, F, idx, vals, methods=None, folds=10, seed=0, **options):
     >>> cv.best, cv.errors["rbf"] < 1e-9
     ('rbf', True)
     """
-    from ..validate import as_mesh, as_samples, as_values
-
     bad = [key for key in options if key not in FIT_OPTIONS + SURFACE_OPTIONS]
     if bad:
         raise OptionError(f"cross_validate takes no option {bad[0]!r}; pass those of reconstruct "
                           f"({', '.join(FIT_OPTIONS + SURFACE_OPTIONS)})")
-    distance, duplicates = options.pop("distance", "length"), options.pop("duplicates", "error")
-    max_distance = options.pop("max_distance", None)
-    check_options(**{key: options[key] for key in ("partition", "weights", "curve_values", "solver", "iteration",
-                                                   "init") if key in options}, distance=distance)
+    base = configure(method="harmonic", **options)  # every option checked once; each candidate sets its method
     if isinstance(V, Surface):
         if F is not None:
             raise OptionError("pass F=None with a Surface (it has its own triangles, or none)")
         surface = V
     else:
-        V, F = as_mesh(V, F, allow_degenerate=options.get("weights", "cotan") in ("uniform", "robust"))
-        surface = Surface.from_mesh(V, F, distance=distance, check=False)
+        V, F = as_mesh(V, F, allow_degenerate=base.fill.weights in ("uniform", "robust"))
+        surface = Surface.from_mesh(V, F, distance=base.fill.distance, check=False)
     cands = candidates_of(methods, digital=surface.F is None)
+    duplicates, max_distance = base.points.duplicates, base.points.max_distance
     if is_positions(idx):
         if surface.F is None:
             raise SampleError("samples as positions need triangles to be located on; pass vertex indices")
         P = np.asarray(idx, dtype=np.float64)
         vals, _ = as_values(vals, len(P))
         loc = locate_points(surface.V, surface.F, P, max_distance=max_distance)
-        return run_folds(surface, loc.nearest_vertex, vals, cands, folds=folds, seed=seed, options=options,
-                         positions=(P, loc, duplicates))
+        return run_folds(surface, loc.nearest_vertex, vals, cands, folds=folds, seed=seed, options=base,
+                         reconstruct=reconstruct_surface,
+                         positions=(P, loc, duplicates, lambda name: method_of(name).at_points))
     if max_distance is not None:
         raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
     raw = np.asarray(idx)
     idx, vals, _ = as_samples(idx, vals, surface.n, duplicates=duplicates)
-    if options.get("sample_weights") is not None:
+    if base.fit.sample_weights is not None:
         if idx.size != raw.size:
             raise SampleError("sample_weights with repeated sample vertices: merge the samples first, one per vertex")
-        options["sample_weights"] = np.asarray(options["sample_weights"], dtype=np.float64)[np.argsort(raw)]
-    return run_folds(surface, idx, vals, cands, folds=folds, seed=seed, options=options)
-
-
-def run_folds(surface, idx, vals, candidates, *, folds, seed, options, positions=None):
-    """Cross-validate validated samples on a Surface (what :func:`cross_validate` does after validation).
-
-    Parameters
-    ----------
-    surface : Surface
-    idx : (k,) int64 numpy array
-        Sorted unique sample vertices.
-    vals : (k, p) numpy array
-    candidates : dict of str to (str, dict)
-        Label -> ``(method, options)``.
-    folds, seed
-        As for :func:`cross_validate`.
-    options : dict
-        Options of every fit (a candidate's override them; ``on_empty`` is set to ``'nan'``).
-    positions : (P, SurfacePoints, duplicates), optional
-        Samples given as positions ``P`` (``(k, 3)``), located; ``idx`` is then unused.
-
-    Returns
-    -------
-    CrossValidation
-    """
-    k, p = vals.shape
-    labels = fold_labels(k, folds, seed)
-    nf = int(labels.max()) + 1
-    span = vals.max(axis=0) - vals.min(axis=0)
-    span = np.where(span > 0, span, 1.0)  # a constant field: absolute errors
-    sw = options.get("sample_weights")
-    res = {key: {} for key in ("errors", "field_errors", "fold_errors", "seconds", "failures", "excluded")}
-    for label, (name, own) in candidates.items():
-        fit = {**options, **own, "on_empty": "nan", "seed": seed}
-        pred = np.full((k, p), np.nan)
-        failures, t0 = {}, time.perf_counter()
-        for f in range(nf):
-            test = labels == f
-            train = ~test
-            if sw is not None:
-                fit["sample_weights"] = sw[train]
-            try:
-                pred[test] = _fit(surface, idx, vals, train, name, fit, positions)
-            except (ManifillError, ArithmeticError, np.linalg.LinAlgError) as e:
-                failures[f] = _one_line(e)
-        seconds = time.perf_counter() - t0
-        ran = np.isin(labels, [f for f in range(nf) if f not in failures])
-        miss = ran & np.isnan(pred).any(axis=1)
-        use = ran & ~miss
-        rel = (pred - vals) / span
-        with np.errstate(invalid="ignore"):
-            fe = np.sqrt(np.mean(rel[use] ** 2, axis=0)) if use.any() else np.full(p, np.nan)
-            folds_e = np.array([np.sqrt(np.mean(rel[use & (labels == f)] ** 2)) if (use & (labels == f)).any()
-                                else np.nan for f in range(nf)])
-        res["errors"][label] = float(np.sqrt(np.mean(fe ** 2)))
-        res["field_errors"][label] = fe
-        res["fold_errors"][label] = folds_e
-        res["seconds"][label] = seconds
-        res["failures"][label] = failures
-        res["excluded"][label] = int(miss.sum())
-    return CrossValidation(methods=list(candidates), candidates=candidates, folds=nf, loo=folds == "loo",
-                           seed=seed, samples=k, labels=labels, **res)
-
-
-def _fit(surface, idx, vals, train, name, fit, positions):
-    """One fold's fit on the training samples, evaluated at the held-out ones."""
-    test = ~train
-    if positions is None:
-        r = reconstruct_surface(surface, idx[train], vals[train], method=name, **fit)
-        return r.values[idx[test]]
-    P, loc, duplicates = positions
-    ps = point_samples(surface.V, surface.F, P[train], vals[train], duplicates=duplicates,
-                       nearest_only=name not in AT_POINTS)
-    r = reconstruct_surface(surface, ps.nearest, ps.nearest_vals, method=name, points=ps, **fit)
-    return np.einsum("tj,tjp->tp", loc.bary[test], r.values[loc.corners[test]])
-
-
-def _one_line(exc):
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    text = text if isinstance(exc, ManifillError) else f"{type(exc).__name__}: {text}"
-    return text if len(text) <= 160 else text[:157] + "..."
-
-
-def reconstruct_auto(surface, idx, vals, *, options, progress=None, seconds=None, points=None):
-    """``method="auto"``: cross-validate the default candidates, reconstruct with the best on all samples.
-
-    Parameters
-    ----------
-    surface : Surface
-    idx : (k,) int64 numpy array
-        Sorted unique sample vertices.
-    vals : (k, p) numpy array
-    options : dict
-        The options of :func:`manifill.reconstruct_surface` (everything but ``method``,
-        ``progress`` and ``seconds``); ``seed`` seeds the split as well.
-    progress : callable, optional
-        Told ``cross-validate`` and ``fill``.
-    seconds : dict, optional
-        Timings so far, filled in place (``cross_validate``, then the chosen method's steps).
-    points : PointSamples, optional
-        Samples given as positions: the folds use their nearest vertices ``idx``, ``vals``;
-        the final fit gets the points when their constraints were built (every point
-        has one), else the nearest vertices too.
-
-    Returns
-    -------
-    Reconstruction
-        Equal to ``reconstruct_surface(surface, idx, vals, method=<chosen>, **options,
-        **<its options>)``, with ``report['auto']`` (:meth:`CrossValidation.summary`) and
-        ``report['method']`` the chosen method.
-
-    Raises
-    ------
-    SampleError
-        Fewer than :data:`MIN_SAMPLES` samples.
-    SolveError
-        No candidate ran on every fold.
-    """
-    seconds = {} if seconds is None else seconds
-    k = len(idx)
-    if k < MIN_SAMPLES:
-        raise SampleError(f"method='auto' cross-validates and needs at least {MIN_SAMPLES} samples, got {k}; "
-                          f"add samples or pick a method (e.g. method='harmonic')")
-    if options.get("sample_weights") is not None and options.get("smoothing") is None:
-        raise OptionError("method='auto': sample_weights weigh soft constraints; pass smoothing= too, or leave "
-                          "them out")
-    if points is not None and options.get("sample_weights") is not None:
-        raise OptionError("method='auto' with samples at positions takes no sample_weights yet; pick a method, "
-                          "or pass the samples at vertices")
-    folds = AUTO_FOLDS if k >= AUTO_FOLDS else "loo"
-    tick(progress, "cross-validate")
-    t = time.perf_counter()
-    fit = {key: v for key, v in options.items() if key != "on_empty"}
-    digital = surface.F is None  # no triangles: no mass matrix for the biharmonic energy
-    auto = [c for c in AUTO_CANDIDATES if not (digital and c[0] in ("biharmonic", "triharmonic"))]
-    cv = run_folds(surface, idx, vals, candidates_of(auto, digital=digital), folds=folds,
-                   seed=options.get("seed", 0), options={key: v for key, v in fit.items() if key != "seed"})
-    seconds["cross_validate"] = time.perf_counter() - t
-    if cv.best is None:
-        first = next(iter(cv.failures[cv.ranking()[0]].values()), "no prediction")
-        raise SolveError(f"method='auto': no candidate ran on every fold (e.g. {cv.ranking()[0]}: {first}); "
-                         f"pick a method")
-    name, own = cv.candidates[cv.best]
-    tick(progress, "fill")
-    built = points is not None and points.constraint.size and (points.constraint >= 0).all()
-    r = reconstruct_surface(surface, idx, vals, method=name, **{**options, **own}, seconds=seconds,
-                            points=points if built else None)
-    if points is not None and not built:
-        from .points import points_report
-
-        r.report["points"] = points_report(points, False)
-    r.report["auto"] = cv.summary()
-    return r
+        base = base.replace(sample_weights=np.asarray(base.fit.sample_weights, dtype=np.float64)[np.argsort(raw)])
+    return run_folds(surface, idx, vals, cands, folds=folds, seed=seed, options=base, reconstruct=reconstruct_surface)

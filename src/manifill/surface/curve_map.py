@@ -49,9 +49,9 @@ def curve_map(surface, part, idx, method="hermite"):
     >>> from manifill.surface.surface import Surface
     >>> V, F = icosphere(2)
     >>> s, idx = Surface.from_mesh(V, F), np.array([0, 10, 50, 90, 120])
-    >>> b, C = curve_map(s, partition(V, F, idx, s.G), idx)
+    >>> b, C = curve_map(s, partition(s, idx), idx)
     >>> vals = V[idx, :1]
-    >>> bool(np.allclose(C @ vals, values_on_curves(s, partition(V, F, idx, s.G), idx, vals).vals))
+    >>> bool(np.allclose(C @ vals, values_on_curves(s, partition(s, idx), idx, vals).vals))
     True
     """
     k = idx.size

@@ -420,7 +420,7 @@ def values_on_curves(surface, part, idx, vals, *, method="hermite", checks=None)
     >>> from manifill.surface.surface import Surface
     >>> V, F = icosphere(2)
     >>> s, idx = Surface.from_mesh(V, F), np.array([0, 10, 50, 90, 120])
-    >>> cv = values_on_curves(s, partition(V, F, idx, s.G), idx, V[idx, :1])
+    >>> cv = values_on_curves(s, partition(s, idx), idx, V[idx, :1])
     >>> bool(np.isin(idx, cv.idx).all()), cv.vals.shape[1]
     (True, 1)
     """

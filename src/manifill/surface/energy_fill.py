@@ -16,15 +16,23 @@ constraints, not the energy:
   (``report['smoothing']['residuals']``).
 """
 
+import time
+
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError, SolveError
 from ..linalg.active_set import as_bounds as bounds_per_field
 from ..linalg.active_set import check_samples
-from ..linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
+from ..linalg.backends import AUTO_DIRECT_FIELDS, AUTO_DIRECT_MAX, auto_backend, make_linear_solver
+from ..linalg.energies import polyharmonic_energy
 from ..linalg.quadratic import QuadraticSolver
+from ..linalg.smoothing import smooth
+from ..mesh.laplacian import mass_matrix
+from ..mesh.topology import pattern_components
 from ..tolerances import TOL
+from .options import FitOptions
+from .points import eliminate_rows
 from .polyharmonic import PolyharmonicSolver
 from .prepared import cached
 
@@ -77,9 +85,8 @@ def as_bounds(bounds, vals):
     return lo, hi
 
 
-def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_empty="error", bounds=None,
-                smoothing=None, sample_weights=None, tol=None, maxiter=None, Aeq=None, beq=None, fields=None,
-                prepared=None):
+def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_empty="error", fit=None, rows=None,
+                fields=None, prepared=None, **settings):
     """Minimise the k-harmonic energy on a Surface with the samples as constraints.
 
     Parameters
@@ -92,24 +99,22 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         Sample values.
     k : {1, 2, 3}, optional
         Order of the energy.
-    weights, solver, on_empty, tol, maxiter
+    weights, solver, on_empty
         As for :func:`manifill.reconstruct`.
-    bounds : None, 'samples' or (lo, hi), optional
-        See :func:`as_bounds`.
-    smoothing : None, float >= 0 or 'auto', optional
-        Soft constraints with this lambda (``'auto'``: chosen by generalised cross-validation).
-    sample_weights : (k,) or (k + m,) array_like of float > 0, optional
-        Weights ``w_i`` of the soft constraints (the vertex samples, then the rows of ``Aeq``).
-    Aeq : (m, n) scipy sparse matrix, optional
-        Samples at points inside faces: one barycentric row each
+    fit : FitOptions, optional
+        ``bounds`` (None, 'samples' or (lo, hi), see :func:`as_bounds`), ``smoothing`` (None, a
+        lambda >= 0 or 'auto': soft constraints, lambda chosen by generalised cross-validation)
+        and ``sample_weights`` ((k,) or (k + m,) weights ``w_i`` of the soft constraints: the
+        vertex samples, then the rows of ``Aeq``) (:class:`manifill.surface.options.FitOptions`).
+    rows : (Aeq, beq), optional
+        ``Aeq`` ((m, n) scipy sparse matrix): samples at points inside faces, one barycentric row each
         (:meth:`manifill.surface.locate.SurfacePoints.rows`), constrained exactly,
         or softly with ``smoothing``; ``idx`` may then be empty. ``solver='direct'``
         factorises the KKT system (and holds bounds); ``'amg'`` eliminates one free
         vertex per row (:func:`manifill.surface.points.eliminate_rows`) and runs
         AMG-preconditioned CG on the reduced, still positive definite, energy (no
         bounds); ``'auto'`` picks between them by size as for vertex samples.
-    beq : (m, p) numpy array, optional
-        Their values.
+        ``beq`` ((m, p) numpy array): their values.
     fields : int, optional
         How many fields will share these samples (default: ``vals``' columns); with
         many, ``solver='auto'`` factorises larger systems too.
@@ -117,6 +122,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         Keeps the energy and the solve core (its factorisation or hierarchy) for the
         next call with the same samples (:mod:`manifill.surface.prepared`); the bounded
         active set's own solves and the smoothing fit are made anew at every call.
+    **settings
+        ``tol``, ``maxiter`` of the solver.
 
     Returns
     -------
@@ -132,6 +139,12 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     SampleError, SolveError
         As for the solve core.
     """
+    fit = FitOptions() if fit is None else fit
+    bounds, smoothing, sample_weights = fit.bounds, fit.smoothing, fit.sample_weights
+    Aeq, beq = (None, None) if rows is None else rows
+    tol, maxiter = settings.pop("tol", None), settings.pop("maxiter", None)
+    if settings:
+        raise OptionError(f"energy_fill takes no setting {next(iter(settings))!r}; pass tol or maxiter")
     A = cached(prepared, "energy matrix", lambda: _energy(surface, surface.laplacian(weights), k))
     fields = vals.shape[1] if fields is None else fields
     lohi = as_bounds(bounds, vals if Aeq is None else np.vstack([vals, beq]))
@@ -190,15 +203,12 @@ def _energy(surface, L, k):
     if surface.F is None:
         raise OptionError(f"the {'bi' if k == 2 else 'tri'}harmonic energy needs triangles (a mass matrix); "
                           f"a digital surface has none: use method='harmonic' or a tetrahedral solid")
-    from ..linalg.energies import polyharmonic_energy
-    from ..mesh.laplacian import mass_matrix
 
     # the Voronoi mass, as igl.harmonic(V, F, b, bc, k) uses (manifill.surface.polyharmonic.biharmonic's default)
-    return polyharmonic_energy(L, mass_matrix(surface.V, surface.F, kind="voronoi"), k)
+    return polyharmonic_energy(L, mass_matrix(surface.V, surface.F, mass="voronoi"), k)
 
 
 def _smoothed(A, n, idx, vals, smoothing, sample_weights, k, Aeq=None, beq=None):
-    from ..linalg.smoothing import smooth
 
     lam = smoothing_value(smoothing, idx.size + (0 if Aeq is None else Aeq.shape[0]))
     S = sp.csr_array((np.ones(idx.size), (np.arange(idx.size), idx)), shape=(idx.size, n))
@@ -301,7 +311,6 @@ def _bounded_rows(A, idx, vals, Aeq, beq, lohi, *, on_empty, symmetric_pattern):
 
 def _row_solver(k, free, solver, lohi, tol, maxiter):
     """The backend for samples inside faces: the KKT factorisation, or AMG on the rows eliminated."""
-    from ..linalg.backends import AUTO_DIRECT_MAX
 
     if solver == "iterate":
         raise OptionError("samples inside faces are equality rows, which solver='iterate' cannot hold; "
@@ -319,11 +328,7 @@ def _row_solver(k, free, solver, lohi, tol, maxiter):
 
 def _eliminated(A, idx, vals, Aeq, beq, *, tol, maxiter, on_empty, symmetric_pattern):
     """Samples inside faces with AMG-preconditioned CG: ``x = T z + t`` meets the rows, ``T' A T`` is SPD."""
-    import time
 
-    from ..linalg.backends import make_linear_solver
-    from ..mesh.topology import pattern_components
-    from .points import eliminate_rows
 
     t0 = time.perf_counter()
     n, p = A.shape[0], vals.shape[1]

@@ -9,6 +9,8 @@ The paper's Step 5 iterates from random values or from a gradually varied fit;
 ``gvf`` method of :func:`manifill.surface.reconstruct.reconstruct`).
 """
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..errors import SolveError
@@ -19,11 +21,18 @@ from .gradual import gvf
 from .harmonic import HarmonicSolver
 from .prepared import cached
 
-__all__ = ["INITS", "fill_patches", "gvf_fill", "start_values"]
+__all__ = ["INITS", "PatchFill", "fill_patches", "gvf_fill", "start_values"]
 
 #: Initial values of ``solver='iterate'``: a GVF fit, random values in the samples' range,
 #: or the mean of the fixed values (the solver's own start).
 INITS = ("gvf", "random", "mean")
+
+
+class PatchFill(NamedTuple):
+    """The result of :func:`fill_patches`: the values and the solver's report (unpacks as ``values, report``)."""
+
+    values: np.ndarray
+    report: dict
 
 
 def gvf_fill(surface, idx, vals, checks, *, on_empty="nan"):
@@ -121,9 +130,8 @@ def start_values(init, surface, idx, vals, *, checks=None, seed=0):
     return None
 
 
-def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error",
-                 iteration="gauss-seidel", x0=None, tol=None, maxiter=None, lo=None, hi=None, fields=None,
-                 largest=None, prepared=None):
+def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error", x0=None, bounds=None,
+                 fields=None, largest=None, prepared=None, **settings):
     """Steps 5-6: the harmonic fill with the values at ``idx`` fixed.
 
     Parameters
@@ -140,15 +148,11 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
         Linear solver (:mod:`manifill.linalg.backends`).
     on_empty : {'error', 'nan'}, optional
         A component without a fixed vertex: raise, or leave it NaN.
-    iteration : {'gauss-seidel', 'jacobi'}, optional
-        Sweeps of ``solver='iterate'``.
     x0 : (n,) or (n, p) array, callable or None, optional
         Initial values, used only when the solver is ``iterate``; a callable
         (e.g. ``lambda: start_values(...)``) is called only then.
-    tol, maxiter : optional
-        Passed to the solver.
-    lo, hi : (p,) array_like, optional
-        Bounds of the fill (see :meth:`manifill.surface.harmonic.HarmonicSolver.solve`);
+    bounds : ((p,), (p,)) pair of array_like, optional
+        ``(lo, hi)``: bounds of the fill (see :meth:`manifill.surface.harmonic.HarmonicSolver.solve`);
         ``vals`` must lie within them.
     fields : int, optional
         How many fields will share this fixed set (default: ``vals``' columns);
@@ -159,14 +163,16 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
     prepared : Prepared, optional
         Keeps the solver for the next call with the same fixed set
         (:mod:`manifill.surface.prepared`).
+    **settings
+        The solver's settings: ``iteration`` ({'gauss-seidel', 'jacobi'}, the sweeps of
+        ``solver='iterate'``), ``tol``, ``maxiter``.
 
     Returns
     -------
-    values : (n,) or (n, p) numpy array
-        Shaped like ``vals``' columns; exactly ``vals`` at ``idx``.
-    report : dict
-        The solver's report (:class:`~manifill.surface.harmonic.HarmonicSolver`),
-        with ``weights``.
+    PatchFill
+        ``values`` ((n,) or (n, p) numpy array, shaped like ``vals``' columns; exactly ``vals``
+        at ``idx``) and ``report`` (the solver's, :class:`~manifill.surface.harmonic.HarmonicSolver`,
+        with ``weights``); unpacks as ``values, report``.
 
     Raises
     ------
@@ -193,9 +199,9 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
             if solver == "auto":
                 backend = auto_backend(L.shape[0] - len(idx), L.nnz, fields, largest=largest, spd=True)
             factoriser = "superlu" if largest is not None and largest <= AUTO_DIRECT_MAX else None
-        hs = HarmonicSolver.from_laplacian(L, idx, solver=backend, on_empty=on_empty, iteration=iteration,
-                                           tol=tol, maxiter=maxiter, symmetric_pattern=weights in ("uniform", "cotan"),
-                                           factoriser=factoriser)
+        hs = HarmonicSolver.from_laplacian(L, idx, solver=backend, on_empty=on_empty,
+                                           symmetric_pattern=weights in ("uniform", "cotan"), factoriser=factoriser,
+                                           **settings)
         hs.report["weights"] = weights
         return hs
 
@@ -203,7 +209,8 @@ def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty
     start = None
     if hs.report["solver"] == "iterate":
         start = x0() if callable(x0) else x0
+    lo, hi = (None, None) if bounds is None else bounds
     values = hs.solve(vals, x0=start, lo=lo, hi=hi)
     report = {k: v for k, v in hs.report.items() if k != "seconds"}
     report["seconds"] = dict(hs.report["seconds"])
-    return values, report
+    return PatchFill(values, report)

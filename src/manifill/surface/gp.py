@@ -22,61 +22,17 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError
+from ..linalg.energies import polyharmonic_energy
+from ..linalg.gp import as_gp_options, gp_condition, intrinsic_std
+from ..linalg.spde import MaternShape
+from ..mesh.laplacian import mass_matrix
+from ..mesh.roots import gradient_root, laplacian_root
+from ..mesh.topology import pattern_components
 
-__all__ = ["UNTRUSTED", "reconstruct_gp", "energy_uncertainty", "trust_mask", "check_uncertainty", "check_gp_for"]
+__all__ = ["VARIANCE_OPTIONS", "reconstruct_gp", "energy_uncertainty", "trust_mask"]
 
 #: The ``gp=`` options an energy method's ``uncertainty=True`` takes (how its variance is computed).
 VARIANCE_OPTIONS = ("variance", "samples", "seed")
-
-#: What ``untrusted=`` does where the std exceeds the threshold: keep the value (the mask says), or NaN.
-UNTRUSTED = ("mask", "nan")
-
-
-def check_uncertainty(method, uncertainty, trust, untrusted, bounds):
-    """``uncertainty`` resolved for ``method`` (None: True for gp), with the refusals of the other options."""
-    from .energy_fill import ENERGY_METHODS
-
-    if untrusted not in UNTRUSTED:
-        raise OptionError(f"untrusted={untrusted!r} is not one of {', '.join(UNTRUSTED)}; pass one of those")
-    if uncertainty is None:
-        uncertainty = method == "gp" or trust is not None
-    if uncertainty and method != "gp" and method not in ENERGY_METHODS:
-        raise OptionError(f"uncertainty needs a probability model, and method={method!r} has none (the curve "
-                          f"pipeline's curve values are estimates); pass method='gp', 'harmonic' or 'biharmonic'")
-    if uncertainty and bounds is not None:
-        raise OptionError("uncertainty and bounds together are not supported: a bounded fill is not a Gaussian "
-                          "posterior mean; leave bounds out, or uncertainty")
-    if trust is not None:
-        if not uncertainty:
-            raise OptionError("trust= needs the standard deviation; leave uncertainty=False out")
-        try:
-            t = float(trust)
-        except (TypeError, ValueError):
-            t = float("nan")
-        if not (np.isfinite(t) and t > 0):
-            raise OptionError(f"trust={trust!r} is not a number > 0 (a multiple of the samples' standard "
-                              f"deviation); pass one")
-    return bool(uncertainty)
-
-
-def check_gp_for(method, gp, uncertainty):
-    """``gp=`` is method='gp''s; for an energy method with ``uncertainty`` only :data:`VARIANCE_OPTIONS` apply."""
-    from ..linalg.gp import GPOptions, as_gp_options
-    from .energy_fill import ENERGY_METHODS
-
-    if gp is None or method == "gp":
-        return
-    if method in ENERGY_METHODS and uncertainty:
-        given = [f for f in (gp if isinstance(gp, dict) else
-                             {f: getattr(gp, f) for f in GPOptions.__dataclass_fields__
-                              if getattr(gp, f) != getattr(GPOptions(), f)})]
-        extra = [f for f in given if f not in VARIANCE_OPTIONS]
-        if not extra:
-            as_gp_options(gp)
-            return
-        raise OptionError(f"gp option {extra[0]!r} is method='gp''s; with uncertainty, method={method!r} takes only "
-                          f"{', '.join(VARIANCE_OPTIONS)} in gp=; leave it out")
-    raise OptionError(f"gp= holds method='gp''s options, not method={method!r}'s; pass method='gp' or leave gp out")
 
 
 def trust_mask(values, std, sample_vals, trust, untrusted="mask"):
@@ -135,11 +91,6 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
     OptionError
         A digital surface, weights other than cotan, ``solver='iterate'``, bad ``gp`` options.
     """
-    from ..linalg.gp import as_gp_options, gp_condition
-    from ..linalg.spde import MaternShape
-    from ..mesh.laplacian import mass_matrix
-    from ..mesh.roots import gradient_root
-
     opts = as_gp_options(gp)
     if surface.F is None:
         raise OptionError("method='gp' needs triangles (a mass matrix), and a digital surface has none; use the "
@@ -150,8 +101,8 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
     if solver == "iterate":
         raise OptionError("method='gp' solves with 'direct' or 'amg' (or 'auto'), not solver='iterate'")
     V, F = surface.V, surface.F
-    shape = MaternShape(surface.laplacian("cotan"), mass_matrix(V, F).diagonal(), gradient_root(V, F),
-                        opts.alpha, 2)
+    M = mass_matrix(V, F, mass="barycentric").diagonal()
+    shape = MaternShape(surface.laplacian("cotan"), M, gradient_root(V, F), opts.alpha, 2)
     length, diameter = _lengths(V, F)
     oidx, rows, Y = _observations(points, idx, vals)
     where = V[oidx] if rows is None else np.vstack([V[oidx], sp.csr_array(rows) @ V])
@@ -160,8 +111,8 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
     return X, std, report
 
 
-def energy_uncertainty(surface, k, weights, idx, vals, points, X, fill_report, *, sample_weights=None,
-                       variance="auto", samples=100, seed=0, solver="auto"):
+def energy_uncertainty(surface, k, X, observed, *, weights="cotan", fill_report=None, sample_weights=None, gp=None,
+                       solver="auto"):
     """``(std, report)`` of an energy method's result ``X`` read as an intrinsic Gaussian field.
 
     Parameters
@@ -169,31 +120,29 @@ def energy_uncertainty(surface, k, weights, idx, vals, points, X, fill_report, *
     surface : Surface
     k : {1, 2, 3}
         The energy's order.
-    weights : str
-        The Laplacian weights the method used.
-    idx, vals, points
-        As the method got them.
     X : (n, p) numpy array
         The method's result (the conditional mean).
-    fill_report : dict
+    observed : (idx, vals, points)
+        The samples as the method got them (``points`` a PointSamples or None).
+    weights : str, optional
+        The Laplacian weights the method used.
+    fill_report : dict, optional
         The fill's report (``smoothing`` gives lambda per field).
     sample_weights : (k,) array_like, optional
         The smoothing's weights.
-    variance, samples, seed, solver
-        As :class:`manifill.GPOptions`.
+    gp : GPOptions, optional
+        How the variance is computed: ``variance``, ``samples``, ``seed`` (:class:`manifill.GPOptions`).
+    solver : {'auto', 'direct', 'amg'}, optional
     """
-    from ..linalg.energies import polyharmonic_energy
-    from ..linalg.gp import intrinsic_std
-    from ..mesh.laplacian import mass_matrix
-    from ..mesh.roots import laplacian_root
-    from ..mesh.topology import pattern_components
-
+    idx, vals, points = observed
+    gp = as_gp_options(gp)
+    fill_report = {} if fill_report is None else fill_report
     L = surface.laplacian(weights)
     root = laplacian_root(L, surface.V, surface.F if weights == "cotan" else None)
     if k == 1:
         Q, B = L, root
     else:
-        M = mass_matrix(surface.V, surface.F, kind="voronoi").diagonal()
+        M = mass_matrix(surface.V, surface.F, mass="voronoi").diagonal()
         Q = polyharmonic_energy(L, sp.diags_array(M), k)
         ML = sp.csr_array(sp.diags_array(1.0 / M) @ L)
         B = sp.csr_array(sp.diags_array(1.0 / np.sqrt(M)) @ L) if k == 2 else (
@@ -225,8 +174,8 @@ def energy_uncertainty(surface, k, weights, idx, vals, points, X, fill_report, *
             B = B[np.flatnonzero(np.diff(B.indptr))]
         oidx = pos[oidx]
         rows = None if rows is None else sp.csr_array(rows)[:, keep]
-    sub, rep = intrinsic_std(Q, B, oidx, rows, Y, X[keep], eta=eta, how=variance, samples=samples, seed=seed,
-                             solver=solver, components=int(anchored.sum()))
+    sub, rep = intrinsic_std(Q, B, oidx, rows, Y, X[keep], eta=eta, how=gp.variance, samples=gp.samples,
+                             seed=gp.seed, solver=solver, components=int(anchored.sum()))
     std[keep] = sub
     rep["energy"] = k
     return std, rep

@@ -12,14 +12,14 @@ sample ``q`` by an edge of length ``i_q`` (shifted to be positive); the conditio
 holds exactly when ``U(p) = i_p`` at every sample ``p``, and where it fails, the
 sample ``q`` that attains ``U(p)`` is the worst partner of ``p``.
 
-Distances are ``hops`` or ``length`` (see :mod:`manifill.mesh.graph`); the integer
-gradually varied fit always works on hops, as its "one level per edge" needs.
+Distances are ``hops`` or ``length`` (:mod:`manifill.mesh.graph`); the integer gradually varied fit works on hops.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import csgraph
 
 from ..errors import OptionError, SampleError
 from ..mesh.graph import offset_distances, voronoi_pairs
@@ -208,13 +208,13 @@ def _uniform(vals, step):
     return levels, np.floor((vals - lo) / step + 0.5).astype(np.int64)
 
 
-def check_gradual(G, idx, vals, *, levels=None, distance=None, start=None):
+def check_gradual(surface, idx, vals, *, levels=None, distance=None, start=None):
     """Choose value levels and check the gradual variation condition.
 
     Parameters
     ----------
-    G : (n, n) scipy sparse matrix
-        The mesh graph for ``distance`` (see :func:`mesh_graph`).
+    surface : Surface or (n, n) scipy sparse matrix
+        A Surface (its hop graph, the paper's measure), or a graph for ``distance`` (:func:`mesh_graph`).
     idx : (k,) numpy array of int
         Sample vertices (unique, validated).
     vals : (k,) numpy array of float
@@ -255,6 +255,7 @@ def check_gradual(G, idx, vals, *, levels=None, distance=None, start=None):
     >>> check_gradual(G, np.array([0, 1]), np.array([0.0, 3.0]), levels=4).violations.tolist()
     [[1.0, 0.0, 1.0, 3.0]]
     """
+    G = getattr(surface, "G_hops", surface)
     if distance is None:
         distance = "length" if G.nnz and not np.all(sp.csr_array(G).data == 1.0) else "hops"
     check_option("distance", distance, ("hops", "length"))
@@ -406,7 +407,6 @@ def _as_check(viol):
 
 
 def _gvf_chen(G, idx, level):
-    from scipy.sparse import csgraph
 
     n = G.shape[0]
     G = sp.csr_array(G)

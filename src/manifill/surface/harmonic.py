@@ -1,4 +1,4 @@
-"""Discrete harmonic extension (the Dirichlet problem) on a triangle mesh.
+"""Discrete harmonic extension (the Dirichlet problem) on a triangle mesh or a tetrahedral solid.
 
 Given values ``vals`` at vertices ``idx``, find ``x`` with ``x[idx] = vals`` and
 ``(L x)_i = 0`` at every other vertex ``i``: each free value is the weighted
@@ -6,13 +6,19 @@ average of its neighbours (Steps 5-6 of the paper). With ``I`` the free vertices
 and ``b = idx`` this is the sparse symmetric positive definite system
 ``L_II x_I = -L_Ib vals``: the minimiser of the Dirichlet energy ``1/2 x^T L x``,
 set up and solved by the solve core :class:`manifill.linalg.quadratic.QuadraticSolver`.
+Triangles ``(m, 3)`` and tetrahedra ``(m, 4)`` are told apart by the width of the
+element array, as libigl's one ``harmonic`` does and as :func:`manifill.biharmonic`
+does: a solid's ``L`` is the tet stiffness of :mod:`manifill.mesh.tetmesh`.
 """
 
 import time
 
+from ..errors import OptionError
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..mesh.laplacian import WEIGHTS, assemble_laplacian
-from ..validate import as_indices, as_laplacian, as_mesh, check_option
+from ..mesh.tetmesh import WEIGHTS as TET_WEIGHTS
+from ..mesh.tetmesh import assemble_tet_laplacian, cell_width
+from ..validate import as_indices, as_laplacian, as_mesh, as_tets, check_option
 
 __all__ = ["HarmonicSolver", "harmonic", "ON_EMPTY"]
 
@@ -27,15 +33,16 @@ class HarmonicSolver(QuadraticSolver):
     ----------
     V : (n, 3) array_like
         Vertex positions.
-    F : (m, 3) array_like of int
-        Triangles, any integer dtype.
+    F : (m, 3) or (m, 4) array_like of int
+        Triangles, or tetrahedra (either orientation), any integer dtype.
     idx : (k,) array_like of int
         Fixed vertices, each listed once.
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
         Laplacian weights (see :mod:`manifill.mesh.laplacian`). ``uniform`` and
         ``intrinsic`` always satisfy the maximum principle; ``cotan`` does on
         meshes without obtuse angle pairs and reproduces linear functions on any
-        flat mesh.
+        flat mesh. Tetrahedra take ``cotan`` (the P1 stiffness, linear precision
+        on any tet mesh) or ``uniform`` (:func:`manifill.mesh.tetmesh.tet_laplacian`).
     solver : {'auto', 'direct', 'amg', 'iterate'}, optional
         Linear solver (see :mod:`manifill.linalg.backends`).
     on_empty : {'error', 'nan'}, optional
@@ -67,13 +74,15 @@ class HarmonicSolver(QuadraticSolver):
     Raises
     ------
     MeshError, SampleError, OptionError
-        On malformed input (see :mod:`manifill.validate`).
+        On malformed input (see :mod:`manifill.validate`): ``F`` of a width other
+        than 3 or 4, or ``intrinsic``/``robust`` weights for tetrahedra.
     SolveError
         On a component without a fixed vertex when ``on_empty="error"``.
 
     See Also
     --------
     harmonic : the one-shot function.
+    manifill.surface.polyharmonic.PolyharmonicSolver : ``k = 1`` is this fill, on the same cells.
 
     Examples
     --------
@@ -92,10 +101,17 @@ class HarmonicSolver(QuadraticSolver):
         t0 = time.perf_counter()
         check_option("on_empty", on_empty, ON_EMPTY)
         check_option("weights", weights, WEIGHTS)
-        V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
+        tets = cell_width(F) == 4
+        if tets and weights not in TET_WEIGHTS:
+            raise OptionError(f"weights={weights!r} is for triangles; tetrahedra take 'cotan' or 'uniform': pass "
+                              f"one of those")
+        if tets:
+            V, F = as_tets(V, F, allow_degenerate=weights == "uniform")
+        else:
+            V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
         idx = as_indices(idx, len(V), what="idx")
         t1 = time.perf_counter()
-        L = assemble_laplacian(V, F, weights)
+        L = assemble_tet_laplacian(V, F, weights) if tets else assemble_laplacian(V, F, weights)
         t2 = time.perf_counter()
         super().__init__(L, idx, solver=solver, on_empty=on_empty, iteration=iteration, tol=tol, maxiter=maxiter,
                          symmetric_pattern=weights in ("uniform", "cotan"), what="L")
@@ -201,8 +217,8 @@ def harmonic(V, F, idx, vals, *, weights="cotan", solver="auto", on_empty="error
     ----------
     V : (n, 3) array_like
         Vertex positions.
-    F : (m, 3) array_like of int
-        Triangles, any integer dtype.
+    F : (m, 3) or (m, 4) array_like of int
+        Triangles or tetrahedra, any integer dtype.
     idx : (k,) array_like of int
         Fixed vertices, each listed once.
     vals : (k,) or (k, p) array_like of float
@@ -235,6 +251,13 @@ def harmonic(V, F, idx, vals, *, weights="cotan", solver="auto", on_empty="error
     >>> x = harmonic(V, F, idx, [0.0, 1.0, 2.0, 3.0], weights="uniform")
     >>> bool(x.min() >= 0 and x.max() <= 3)
     True
+
+    Tetrahedra (a fifth vertex inside a tet) take the same call:
+
+    >>> V = np.array([[0., 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2], [0.4, 0.4, 0.4]])
+    >>> T = [[0, 1, 2, 4], [0, 1, 4, 3], [0, 4, 2, 3], [4, 1, 2, 3]]
+    >>> round(float(harmonic(V, T, [0, 1, 2, 3], V[:4, 0])[4]), 12)  # linear precision: x at the inner vertex
+    0.4
     """
     return HarmonicSolver(V, F, idx, weights=weights, solver=solver, on_empty=on_empty,
                           iteration=iteration, tol=tol, maxiter=maxiter).solve(vals)

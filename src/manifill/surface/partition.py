@@ -240,22 +240,21 @@ def _cycle_paths(V, G, idx):
     return curves, np.array(ends, dtype=np.int64).reshape(-1, 2)
 
 
-def partition(V, F, idx, G, *, method="delaunay"):
-    """Cut the mesh by curves through every sample into patches.
+def partition(surface, idx, *, method="delaunay", graph=None):
+    """Cut the surface by curves through every sample into patches.
 
     Parameters
     ----------
-    V : (n, 3) numpy array
-        Vertex positions (validated).
-    F : (m, 3) numpy array of int
-        Triangles (validated).
+    surface : Surface
+        The surface (:class:`manifill.surface.surface.Surface`): its positions and its graph
+        ``surface.G``, whose edge lengths the paths minimise.
     idx : (k,) numpy array of int
         Sample vertices (unique).
-    G : (n, n) scipy sparse matrix
-        The mesh graph whose edge lengths the paths minimise (see
-        :func:`manifill.mesh.graph.mesh_graph`).
     method : {'delaunay', 'cycle', 'tree'}, optional
         How to draw the curves (see the module docstring).
+    graph : (n, n) scipy sparse matrix, optional
+        Another graph for the paths (e.g. :func:`manifill.mesh.graph.mesh_graph` with
+        ``distance='hops'``); default ``surface.G``.
 
     Returns
     -------
@@ -264,16 +263,17 @@ def partition(V, F, idx, G, *, method="delaunay"):
     Examples
     --------
     >>> from manifill.mesh.shapes import icosphere
-    >>> from manifill.mesh.graph import mesh_graph
+    >>> from manifill.surface.surface import Surface
     >>> V, F = icosphere(3)
     >>> idx = np.array([0, 1, 2, 3, 4])
-    >>> part = partition(V, F, idx, mesh_graph(V, F, distance="length"), method="cycle")
+    >>> part = partition(Surface.from_mesh(V, F), idx, method="cycle")
     >>> bool(part.on_curve[idx].all()), part.report["patches"]
     (True, 2)
     """
     check_option("method", method, PARTITIONS)
     idx = np.asarray(idx, dtype=np.int64)
-    G = sp.csr_array(G)
+    V = surface.V
+    G = sp.csr_array(surface.G if graph is None else graph)
     n = G.shape[0]
     if method == "delaunay":
         (flat, lens), ends, _ = _delaunay_paths(G, idx)

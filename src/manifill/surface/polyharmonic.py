@@ -6,8 +6,9 @@ Given values ``vals`` at vertices ``idx``, minimise the k-harmonic energy
 is the biharmonic fill (the discrete integral of the squared Laplacian), ``k = 3``
 the triharmonic. This is libigl's ``igl::harmonic(V, F, b, bc, k)``, on triangles
 ``(m, 3)`` and tetrahedra ``(m, 4)`` alike, and the same numbers: cotangent
-stiffness, Voronoi mass on triangles and barycentric (quarter-volume) mass on
-tets, libigl's defaults. The minimiser is smooth (C1-like) across the samples,
+stiffness and the barycentric (quarter-volume) mass on tets, libigl's Voronoi mass on
+triangles by default (``mass=None``, as everywhere in manifill; ``mass='barycentric'``
+for a third of each triangle per corner). The minimiser is smooth (C1-like) across the samples,
 where the harmonic fill has a kink, and it may leave the samples' range.
 
 Which solver when (``bench/biharmonic_speed.py``: random samples on icospheres,
@@ -30,7 +31,8 @@ import numpy as np
 from ..linalg.backends import direct_factoriser
 from ..linalg.energies import polyharmonic_energy
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
-from ..mesh.laplacian import assemble_laplacian, mass_matrix
+from ..mesh.laplacian import MASS, assemble_laplacian, mass_matrix
+from ..mesh.tetmesh import assemble_tet_laplacian, cell_width, tet_mass_matrix
 from ..errors import MeshError
 from ..tolerances import TOL
 from ..validate import as_indices, as_mesh, as_tets, bbox_diagonal, check_option
@@ -41,8 +43,7 @@ __all__ = ["PolyharmonicSolver", "biharmonic", "SOLVERS", "WEIGHTS", "MASS"]
 SOLVERS = ("auto", "direct", "amg")
 #: Stiffness weights (``uniform`` ignores geometry; no linear precision).
 WEIGHTS = ("cotan", "uniform")
-#: Lumped masses of triangles (tets always use the barycentric quarter volume).
-MASS = ("voronoi", "barycentric")
+# MASS (imported): the lumped masses of triangles, the default first; tets always use the quarter volume
 
 
 def _unit(V):
@@ -51,7 +52,7 @@ def _unit(V):
     return (V - V.mean(axis=0)) / (d if d > 0 else 1.0)
 
 
-def polyharmonic_matrix(V, F, *, k=2, weights="cotan", mass="voronoi"):
+def polyharmonic_matrix(V, F, *, k=2, weights="cotan", mass=None):
     """The k-harmonic energy matrix of a triangle or tetrahedral mesh, on unit-size positions.
 
     Parameters
@@ -83,18 +84,16 @@ def polyharmonic_matrix(V, F, *, k=2, weights="cotan", mass="voronoi"):
     ((42, 42), True)
     """
     check_option("weights", weights, WEIGHTS)
-    check_option("mass", mass, MASS)
-    width = np.shape(F)[1] if np.ndim(F) == 2 else 3
-    if width == 4:
-        from ..solid.tets import tet_laplacian, tet_mass_matrix  # solid/ is a layer above
-
+    if mass is not None:
+        check_option("mass", mass, MASS)
+    if cell_width(F) == 4:
         V, T = as_tets(V, F, allow_degenerate=weights == "uniform")
         U = _unit(V)
-        L, M = tet_laplacian(U, T, weights=weights), tet_mass_matrix(U, T)
+        L, M = assemble_tet_laplacian(U, T, weights), tet_mass_matrix(U, T)
     else:
         V, F = as_mesh(V, F, allow_degenerate=weights == "uniform")
         U = _unit(V)
-        L, M = assemble_laplacian(U, F, weights), mass_matrix(U, F, kind=mass)
+        L, M = assemble_laplacian(U, F, weights), mass_matrix(U, F, mass=mass)
     if (M.diagonal() <= 0).any():
         raise MeshError(f"vertex {int(np.flatnonzero(M.diagonal() <= 0)[0])} has zero area or volume around it, "
                         f"so the biharmonic energy (which divides by it) is undefined; remove degenerate cells")
@@ -119,11 +118,12 @@ class PolyharmonicSolver(QuadraticSolver):
         Order: 2 biharmonic, 3 triharmonic (1 is the harmonic fill).
     weights : {'cotan', 'uniform'}, optional
         Stiffness weights (:func:`manifill.mesh.laplacian.laplacian`,
-        :func:`manifill.solid.tets.tet_laplacian`); ``cotan`` is libigl's.
-    mass : {'voronoi', 'barycentric'}, optional
-        Lumped mass of a triangle mesh (:func:`manifill.mesh.laplacian.mass_matrix`);
-        ``voronoi`` is libigl's default. Tetrahedra always use a quarter of
-        each tet's volume per corner (:func:`manifill.solid.tets.tet_mass_matrix`).
+        :func:`manifill.mesh.tetmesh.tet_laplacian`); ``cotan`` is libigl's.
+    mass : {None, 'voronoi', 'barycentric'}, optional
+        Lumped mass of a triangle mesh (:func:`manifill.mesh.laplacian.mass_matrix`,
+        the same keyword and default there: None is libigl's ``voronoi`` on triangles).
+        Tetrahedra always use a quarter of each tet's volume per corner
+        (:func:`manifill.mesh.tetmesh.tet_mass_matrix`), whichever name is given.
     solver : {'auto', 'direct', 'amg'}, optional
         Backend for the reduced system; ``auto`` uses AMG-preconditioned CG
         for ``k = 2`` above ``AUTO_DIRECT_MAX`` unknowns and factorises
@@ -182,7 +182,7 @@ class PolyharmonicSolver(QuadraticSolver):
     #: Default iteration cap of ``amg`` (a 4th-order operator needs hundreds of iterations on large meshes).
     MAXITER = 5000
 
-    def __init__(self, V, F, idx, *, k=2, weights="cotan", mass="voronoi", solver="auto", on_empty="error",
+    def __init__(self, V, F, idx, *, k=2, weights="cotan", mass=None, solver="auto", on_empty="error",
                  tol=None, maxiter=None):
         t0 = time.perf_counter()
         check_option("on_empty", on_empty, ON_EMPTY)
@@ -199,7 +199,8 @@ class PolyharmonicSolver(QuadraticSolver):
             r.pop("negative_weights", None)
         order = ["vertices", "fixed", "unknowns", "components", "empty_components"]
         self.report = {**{key: r.pop(key) for key in order}, "k": int(k), "weights": weights,
-                       "mass": "barycentric" if tets else mass, "cells": "tets" if tets else "triangles", **r,
+                       "mass": "barycentric" if tets else (mass or "voronoi"),
+                       "cells": "tets" if tets else "triangles", **r,
                        "seconds": {"energy": t1 - t0, **r["seconds"]}}
 
     @classmethod
@@ -249,7 +250,7 @@ class PolyharmonicSolver(QuadraticSolver):
         return super().solve(vals, x0=x0)
 
 
-def biharmonic(V, F, idx, vals, *, k=2, weights="cotan", mass="voronoi", solver="auto", on_empty="error",
+def biharmonic(V, F, idx, vals, *, k=2, weights="cotan", mass=None, solver="auto", on_empty="error",
                tol=None, maxiter=None):
     """Biharmonic (or k-harmonic) interpolation of values fixed at some vertices (one-shot).
 
@@ -270,7 +271,8 @@ def biharmonic(V, F, idx, vals, *, k=2, weights="cotan", mass="voronoi", solver=
     -------
     (n,) or (n, p) numpy array
         Equal to ``vals`` at ``idx``; elsewhere the minimiser of the k-harmonic
-        energy, equal to ``igl.harmonic(V, F, idx, vals, k)``.
+        energy; with the default mass (libigl's) equal to
+        ``igl.harmonic(V, F, idx, vals, k)``.
 
     Raises
     ------

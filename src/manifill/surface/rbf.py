@@ -27,18 +27,15 @@ least-squares affine fit.
 """
 
 import math
-import time
 
 import numpy as np
 
-from ..errors import OptionError, SampleError, SolveError
+from ..errors import OptionError, SolveError
 from ..memory import check_fits
-from ..progress import tick
 from ..tolerances import TOL
-from .gradual import check_gradual
-from .reconstruct import Reconstruction
+from scipy.interpolate import RBFInterpolator
 
-__all__ = ["thin_plate", "affine_frame", "reconstruct_rbf"]
+__all__ = ["thin_plate", "affine_frame"]
 
 #: Kernel-matrix entries evaluated at once (rows of vertices times samples): about 32 MB.
 CHUNK_ENTRIES = 1 << 22
@@ -130,7 +127,6 @@ def thin_plate(V, X, vals, *, smoothing=None, sample_weights=None):
     >>> bool(np.allclose(X[:, 0], f)), rep["dims"]
     (True, 3)
     """
-    from scipy.interpolate import RBFInterpolator
 
     vals = np.asarray(vals, dtype=np.float64)
     k, p = vals.shape
@@ -190,93 +186,3 @@ def _smoothing(smoothing, sample_weights, k):
         if lam == 0:
             return None
     return lam if lam > 0 else None
-
-
-def reconstruct_rbf(surface, idx, vals, *, levels=None, bounds=None, smoothing=None, sample_weights=None,
-                    progress=None, seconds=None, points=None, check=True):
-    """``method="rbf"`` on a Surface: Step 1's check (for the report; skipped with ``check=False``), then the
-    thin-plate spline.
-
-    Parameters
-    ----------
-    surface : Surface
-        A mesh or a digital surface (only its positions and, for the check, its hop graph are used).
-    idx : (k,) int64 numpy array
-        Sample vertices, sorted and unique.
-    vals : (k, p) numpy array
-        Sample values.
-    levels, progress
-        As for :func:`manifill.reconstruct`.
-    bounds : None
-        Refused otherwise: a spline has no mesh energy to minimise within bounds.
-    smoothing, sample_weights : optional
-        See :func:`thin_plate`.
-    seconds : dict, optional
-        Timings so far (filled in place, as :func:`manifill.reconstruct_surface` does).
-    points : PointSamples, optional
-        Samples given as positions (:mod:`manifill.surface.points`): the spline goes
-        through their closest surface points when their constraints were built (every
-        point has one), else through their nearest vertices ``idx``, ``vals``
-        (``report['points']`` says which).
-
-    Returns
-    -------
-    Reconstruction
-        ``report['rbf']`` is :func:`thin_plate`'s report.
-
-    Raises
-    ------
-    OptionError, SolveError
-        As for :func:`thin_plate`; ``bounds`` given.
-
-    Examples
-    --------
-    >>> from manifill.mesh.shapes import icosphere
-    >>> from manifill.surface.surface import Surface
-    >>> V, F = icosphere(2)
-    >>> idx = np.arange(0, 162, 10)
-    >>> r = reconstruct_rbf(Surface.from_mesh(V, F), idx, V[idx, 2:] ** 2)
-    >>> r.values.shape, r.report["method"], bool(np.allclose(r.values[idx], V[idx, 2:] ** 2))
-    ((162, 1), 'rbf', True)
-    """
-    t0 = time.perf_counter()
-    seconds = {} if seconds is None else seconds
-    before = sum(seconds.values())
-    if bounds is not None:
-        raise OptionError("method='rbf' has no mesh energy to minimise within bounds; pass bounds=None, or use an "
-                          "energy method (e.g. method='biharmonic', bounds='samples')")
-    if vals.ndim != 2 or len(vals) != len(idx):
-        raise SampleError(f"vals has shape {vals.shape} for {len(idx)} samples; pass (k, p) values")
-    n = surface.n
-    report = {"method": "rbf", "samples": int(idx.size), "vertices": n, "seconds": seconds}
-    tick(progress, "check")
-    t = time.perf_counter()
-    checks = [check_gradual(surface.G_hops, idx, vals[:, j], levels=levels, distance="hops")
-              for j in range(vals.shape[1])] if check else []
-    if not check:
-        report["check_skipped"] = f"Step 1 was not run for {vals.shape[1]} fields; pass check=True to run it"
-    report["check"] = [c.summary() for c in checks]
-    seconds["check"] = time.perf_counter() - t
-    tick(progress, "rbf")
-    t = time.perf_counter()
-    X, Y, exact = surface.V[idx], vals, False
-    if points is not None and points.constraint.size and (points.constraint >= 0).all():
-        Y, exact = points.values, True
-        X = np.empty((len(Y), surface.V.shape[1]))
-        X[points.constraint] = points.located.points
-        if sample_weights is not None:
-            sample_weights = points.weights(sample_weights)
-    values, report["rbf"] = thin_plate(surface.V, X, Y, smoothing=smoothing, sample_weights=sample_weights)
-    seconds["rbf"] = time.perf_counter() - t
-    if points is not None:
-        from .points import points_report
-
-        report["points"] = points_report(points, exact)
-    lo, hi = Y.min(axis=0), Y.max(axis=0)
-    report["overshoot"] = float(np.max(np.maximum(values - hi, lo - values)))
-    fixed = np.zeros(n, dtype=bool)
-    fixed[idx] = True
-    seconds["total"] = before + time.perf_counter() - t0
-    return Reconstruction(values=values, curves=[], components=np.zeros(n, dtype=np.int64), on_curve=fixed,
-                          levels=[c.levels for c in checks], report=report, V=surface.V, F=surface.F, idx=idx,
-                          points=None if points is None else points.located)

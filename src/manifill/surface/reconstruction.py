@@ -5,6 +5,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, with_std
+from ..mesh.objects import to_meshio
+from ..mesh.objects import to_pyvista
 
 __all__ = ["Reconstruction"]
 
@@ -113,12 +115,10 @@ class Reconstruction(Result):
         >>> sorted(r.to_pyvista(["t"]).point_data.keys())
         ['curve_mask', 'patch_label', 'sample_mask', 't']
         """
-        from ..mesh.objects import to_pyvista
 
         return to_pyvista(self.V, self.F, self.point_data(names))
 
     def to_meshio(self, names=None):
         """The surface with every field and mask as a ``meshio.Mesh``."""
-        from ..mesh.objects import to_meshio
 
         return to_meshio(self.V, self.F, self.point_data(names))

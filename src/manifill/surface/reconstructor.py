@@ -21,17 +21,18 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.linalg import LinearOperator
 
 from ..errors import OptionError, SampleError
 from ..linalg.quadratic import QuadraticSolver
+from ..memory import check_fits
 from ..validate import as_indices, as_mesh, as_samples, check_option
-from .energy_fill import ENERGY_METHODS, as_bounds
-from .gp import check_gp_for, check_uncertainty
+from .energy_fill import as_bounds
+from .engine import reconstruct_surface
 from .locate import locate_points
-from .methods import check_options, resolve_default
+from .methods.registry import configure, method_of
 from .points import is_positions, point_samples
 from .prepared import Prepared
-from .reconstruct import reconstruct_surface
 from .samples import weights_by_vertex
 from .surface import Surface
 
@@ -51,9 +52,11 @@ class Reconstructor:
     ----------
     V, F, idx
         As for :func:`manifill.reconstruct` (vertex indices or positions).
-    method, partition, weights, distance, levels, curve_values, solver, on_empty, duplicates, iteration, init,
-    seed, tol, maxiter, bounds, smoothing, sample_weights, max_distance, gp, uncertainty, trust, untrusted, check
-        As for :func:`manifill.reconstruct`.
+    options : Options, optional
+        The options, built once (:class:`manifill.surface.options.Options`); or
+    **keywords
+        The options of :func:`manifill.reconstruct` (``method``, ``solver``, ``bounds``, ...), which build
+        them (or change the given ``options``).
     fields : int, optional
         How many fields you will reconstruct in all (a hint; None: many). With
         many, ``solver='auto'`` factorises the fill when the factors fit in memory
@@ -64,6 +67,10 @@ class Reconstructor:
 
     Attributes
     ----------
+    options : Options
+        The configured options (the default preset resolved, ``sample_weights`` in vertex order).
+    method : str
+        The method that runs.
     surface : Surface
     samples : int
         Rows of the values :meth:`apply` takes.
@@ -84,50 +91,52 @@ class Reconstructor:
     True
     """
 
-    def __init__(self, V, F, idx, *, method=None, partition="delaunay", weights="cotan", distance="length",
-                 levels=None, curve_values=None, solver="auto", on_empty="error", duplicates="error",
-                 iteration="gauss-seidel", init="gvf", seed=0, tol=None, maxiter=None, bounds=None, smoothing=None,
-                 sample_weights=None, max_distance=None, gp=None, uncertainty=None, trust=None, untrusted="mask",
-                 check=None, fields=None, prepare=True, progress=None):
+    def __init__(self, V, F, idx, *, options=None, fields=None, prepare=True, progress=None, **keywords):
         t0 = time.perf_counter()
-        self.default = method is None
-        method, curve_values, bounds = resolve_default(method, curve_values, bounds)
-        check_options(method, partition, weights, distance, curve_values, solver, on_empty, iteration, init)
-        check_option("duplicates", duplicates, ("error", "mean"))
-        uncertainty = check_uncertainty(method, uncertainty, trust, untrusted, None if self.default else bounds)
-        check_gp_for(method, gp, uncertainty)
+        o = configure(options, **keywords)
         if fields is not None and not (isinstance(fields, (int, np.integer)) and fields >= 1):
             raise OptionError(f"fields={fields!r} is not a whole number >= 1 (how many fields you will "
                               f"reconstruct); pass one, or None for many")
-        V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
-        n = len(V)
-        self.method, self.bounds, self.duplicates, self.max_distance = method, bounds, duplicates, max_distance
-        self._located, self._raw, self._weights = None, idx, sample_weights
+        V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"))
+        self.method, self._method = o.method, method_of(o.method)
+        self.default = o.preset is not None
+        self._located, self._raw = None, idx
+        weights = o.fit.sample_weights
         if is_positions(idx):
             self._raw = np.asarray(idx, dtype=np.float64)  # the positions, kept for every apply
-            self._located = locate_points(V, F, self._raw, max_distance=max_distance)
+            self._located = locate_points(V, F, self._raw, max_distance=o.points.max_distance)
             self.samples = len(self._raw)
-        elif max_distance is not None:
+        elif o.points.max_distance is not None:
             raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
         else:
-            self._raw = as_indices(idx, n, what="idx", unique=False)
+            self._raw = as_indices(idx, len(V), what="idx", unique=False)
             self.samples = self._raw.size
-            if sample_weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
-                self._weights = weights_by_vertex(self._raw, sample_weights, np.unique(self._raw))
+            if weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
+                weights = weights_by_vertex(self._raw, weights, np.unique(self._raw))
+        self.options = o.replace(sample_weights=weights) if weights is not None else o
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
-        self.surface = Surface.from_mesh(V, F, distance=distance, check=False)
-        self._distance = distance  # to rebuild the surface where a pickled Reconstructor lands
+        self.surface = Surface.from_mesh(V, F, distance=o.fill.distance, check=False)
         self.seconds["graph"] = time.perf_counter() - t
         self.fields = math.inf if fields is None else int(fields)
-        self._options = dict(method=method, partition=partition, weights=weights, levels=levels,
-                             curve_values=curve_values, solver=solver, on_empty=on_empty, iteration=iteration,
-                             init=init, seed=seed, tol=tol, maxiter=maxiter, bounds=bounds, smoothing=smoothing,
-                             gp=gp, uncertainty=uncertainty, trust=trust, untrusted=untrusted, check=check)
-        self.linear, self._why = _linearity(method, curve_values, bounds, smoothing, gp, trust, untrusted)
+        self.linear, self._why = self._linearity()
         self._prepared = Prepared()
         if prepare:
             self._prepare(progress)
+
+    @property
+    def bounds(self):
+        """The bounds the values are held in (None, ``'samples'`` or ``(lo, hi)``)."""
+        return self.options.fit.bounds
+
+    def _linearity(self):
+        """``(linear, why not)`` for this configuration (the module docstring's list)."""
+        o = self.options
+        if o.uq.trust is not None and o.uq.untrusted == "nan":
+            return False, "trust with untrusted='nan' blanks values by their std"
+        if o.fit.bounds is not None:
+            return False, "bounds make an active set, which depends on the values"
+        return self._method.linear(o)
 
     def __getstate__(self):
         """What a pickle holds: the mesh and the plain prepared pieces, not the process-local solvers.
@@ -148,12 +157,12 @@ class Reconstructor:
         """Rebuild the surface; the solvers wait for the first :meth:`apply` (``prepared.cached``)."""
         V, F = state["surface"]
         self.__dict__.update(state)
-        self.surface = Surface.from_mesh(V, F, distance=self._distance, check=False)
+        self.surface = Surface.from_mesh(V, F, distance=self.options.fill.distance, check=False)
         self._prepared = Prepared(state["_prepared"])
 
     def _prepare(self, progress):
         """Build the value-independent pieces by one run on zero values, without Step 1, bounds or the std."""
-        if self.method not in ("gvf-harmonic",) + tuple(ENERGY_METHODS) or self._options["smoothing"] is not None:
+        if not self._method.preparable(self.options):
             return
         t = time.perf_counter()
         zeros = np.zeros((self.samples, 1))
@@ -162,8 +171,8 @@ class Reconstructor:
 
     def _plain(self, **more):
         """The options without Step 1, the std or the trust mask (the pieces values do not need)."""
-        gp = self._options["gp"] if self.method == "gp" else None
-        return dict(self._options, uncertainty=False, trust=None, check=False, gp=gp, **more)
+        gp = self.options.uq.gp if self._method.gp_mean else None
+        return self.options.replace(uncertainty=False, trust=None, check=False, gp=gp, **more)
 
     def _samples(self, vals, duplicates):
         """``(idx, vals, points, squeeze, given)`` for values in the caller's rows."""
@@ -175,9 +184,9 @@ class Reconstructor:
         given = arr.reshape(self.samples, -1)
         if self._located is not None:
             V, F = self.surface.V, self.surface.F
-            nearest_only = self.method not in ENERGY_METHODS and self.method not in ("auto", "rbf", "gp")
             points = point_samples(V, F, self._raw, arr, duplicates=duplicates,
-                                   max_distance=self.max_distance, nearest_only=nearest_only, located=self._located)
+                                   max_distance=self.options.points.max_distance,
+                                   nearest_only=not self._method.at_points, located=self._located)
             return points.nearest, points.nearest_vals, points, points.squeeze, given
         idx, v, squeeze = as_samples(self._raw, arr, self.surface.n, duplicates=duplicates)
         return idx, v, None, squeeze, given
@@ -185,12 +194,11 @@ class Reconstructor:
     def _run(self, vals, options, duplicates, progress=None):
         t0 = time.perf_counter()
         idx, v, points, squeeze, given = self._samples(vals, duplicates)
-        if options["bounds"] is not None:  # samples outside the bounds are named by the caller's row
-            as_bounds(options["bounds"], given)
+        if options.fit.bounds is not None:  # samples outside the bounds are named by the caller's row
+            as_bounds(options.fit.bounds, given)
         seconds = {"validate": time.perf_counter() - t0}
-        r = reconstruct_surface(self.surface, idx, v, sample_weights=self._weights, progress=progress,
-                                seconds=seconds, points=points, fields=self.fields, prepared=self._prepared,
-                                **options)
+        r = reconstruct_surface(self.surface, idx, v, options=options, progress=progress, seconds=seconds,
+                                points=points, fields=self.fields, prepared=self._prepared)
         r.report["default"] = self.default
         smoothed = r.report.get("harmonic", {}).get("smoothing")
         if smoothed is not None:  # residuals in the caller's rows and shape
@@ -221,7 +229,7 @@ class Reconstructor:
         SampleError
             Values with another number of rows, NaN, conflicting duplicates, values outside ``bounds``.
         """
-        return self._run(vals, self._options, self.duplicates, progress)
+        return self._run(vals, self.options, self.options.points.duplicates, progress)
 
     def check_values(self, vals):
         """Refuse values as :meth:`apply` would (shape, NaN, conflicting duplicates), without solving anything.
@@ -231,7 +239,7 @@ class Reconstructor:
         SampleError
             As :meth:`apply`.
         """
-        self._samples(vals, self.duplicates)
+        self._samples(vals, self.options.points.duplicates)
 
     def matrix(self, *, form="auto"):
         """The interpolation map ``W`` (n x k) with ``W @ vals == apply(vals).values``, for the linear methods.
@@ -257,8 +265,6 @@ class Reconstructor:
         ResourceError
             A sparse map whose blocks would not fit in memory.
         """
-        from scipy.sparse.linalg import LinearOperator
-
         check_option("form", form, MATRIX_FORMS)
         if not self.linear:
             raise OptionError(f"this reconstruction is not linear in the sample values ({self._why}), so it has no "
@@ -267,14 +273,12 @@ class Reconstructor:
         n, k = self.surface.n, self.samples
         options = self._plain()
         if form == "auto":
-            form = "sparse" if self.method == "gvf-harmonic" else "operator"
+            form = "sparse" if self._method.sparse_map else "operator"
         if form == "operator":
             def matmat(X):
                 return np.asarray(self._run(np.asarray(X).reshape(k, -1), options, "mean").values).reshape(n, -1)
 
             return LinearOperator((n, k), matvec=lambda x: matmat(x).ravel(), matmat=matmat, dtype=np.float64)
-        from ..memory import check_fits
-
         check_fits(8.0 * n * min(MATRIX_BLOCK, k) * 2, f"a block of {min(MATRIX_BLOCK, k)} columns of the {n:,} x "
                    f"{k:,} map", "use form='operator'")
         blocks = []
@@ -291,23 +295,3 @@ class Reconstructor:
 def _process_local(piece):
     """Whether a prepared piece holds a solver that cannot leave its process (a factorisation, an AMG hierarchy)."""
     return isinstance(piece, QuadraticSolver)  # the fill's HarmonicSolver is one
-
-
-def _linearity(method, curve_values, bounds, smoothing, gp, trust, untrusted):
-    """``(linear, why not)`` for a configuration (the module docstring's list)."""
-    if trust is not None and untrusted == "nan":
-        return False, "trust with untrusted='nan' blanks values by their std"
-    if bounds is not None:
-        return False, "bounds make an active set, which depends on the values"
-    if method == "gvf-harmonic":
-        return (curve_values in ("hermite", "linear"),
-                f"curve_values={curve_values!r} is not linear in the values; 'hermite' and 'linear' are")
-    if method in ENERGY_METHODS or method == "rbf":
-        return smoothing != "auto", "smoothing='auto' picks lambda per field"
-    if method == "gp":
-        from ..linalg.gp import as_gp_options
-
-        o = as_gp_options(gp)
-        given = not any(isinstance(x, str) for x in (o.range, o.sigma, o.noise))
-        return given, "the gp's hyperparameters are fitted per call; give gp={'range', 'sigma', 'noise'}"
-    return False, f"method={method!r} is not linear in the values"

@@ -7,15 +7,16 @@ mask, spacing, origin or Laplacian, :class:`~manifill.errors.SampleError` for ba
 samples, :class:`~manifill.errors.OptionError` for an option outside its set. Core
 functions call these and then trust their arrays.
 
-The layer is part of the base: at module level it imports only
-:mod:`manifill.errors` and :mod:`manifill.tolerances` (``as_mesh`` and ``as_tets``
-reach :mod:`manifill.mesh.objects` lazily, to accept pyvista, trimesh and meshio
-objects). It is one package of modules by concept, all re-exported here:
+The layer is part of the base: it imports only :mod:`manifill.errors` and
+:mod:`manifill.tolerances` (``as_mesh`` and ``as_tets`` accept pyvista, trimesh and
+meshio objects through :mod:`manifill.validate.objects`, which imports none of those
+libraries). It is one package of modules by concept, all re-exported here:
 
 - :mod:`manifill.validate.options` - ``check_option`` and the messages' helpers
 - :mod:`manifill.validate.scale` - ``unit_scale`` and the bounding-box diagonal
 - :mod:`manifill.validate.degenerate` - zero-area faces, coinciding vertices
 - :mod:`manifill.validate.meshes` - ``as_mesh``, ``as_tets``, ``as_laplacian``
+- :mod:`manifill.validate.objects` - ``mesh_arrays``, ``tet_arrays``: pyvista, trimesh, meshio objects as arrays
 - :mod:`manifill.validate.grids` - ``as_mask``, ``as_spacing``, ``as_origin``, ``as_voxels``
 - :mod:`manifill.validate.samples` - ``as_indices``, ``as_values``, ``as_samples``
 """
@@ -23,6 +24,7 @@ objects). It is one package of modules by concept, all re-exported here:
 from .degenerate import double_areas, duplicate_vertex_pairs, zero_area_faces
 from .grids import as_mask, as_origin, as_spacing, as_voxels
 from .meshes import as_cells, as_laplacian, as_mesh, as_tets, as_vertices
+from .objects import is_mesh_object, mesh_arrays, tet_arrays
 from .options import check_option, first_entries, integral_floats
 from .samples import as_indices, as_samples, as_values
 from .scale import UNIT_WINDOW, bbox_diagonal, scale_and_diagonal, scale_of, unit_scale
@@ -33,6 +35,9 @@ __all__ = [
     "as_vertices",
     "as_cells",
     "as_laplacian",
+    "mesh_arrays",
+    "tet_arrays",
+    "is_mesh_object",
     "as_mask",
     "as_spacing",
     "as_origin",

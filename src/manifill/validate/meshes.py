@@ -11,6 +11,7 @@ import scipy.sparse as sp
 from ..errors import MeshError
 from ..tolerances import TOL
 from .degenerate import duplicate_vertex_pairs, zero_area_faces
+from .objects import mesh_arrays, tet_arrays
 from .options import first_entries, integral_floats
 from .scale import scale_and_diagonal
 
@@ -149,8 +150,6 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
     >>> V.shape, F.dtype
     ((3, 3), dtype('int64'))
     """
-    from ..mesh.objects import mesh_arrays
-
     V, F = mesh_arrays(V, F)
     V = as_vertices(V)
     n = len(V)
@@ -220,8 +219,6 @@ def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):
     >>> V.dtype, T.shape, T.dtype
     (dtype('float64'), (1, 4), dtype('int64'))
     """
-    from ..mesh.objects import tet_arrays
-
     V, T = tet_arrays(V, T)
     V3 = as_vertices(V)
     if np.shape(V)[1] != 3:  # as_vertices pads a flat (n, 2) mesh, which has no volume

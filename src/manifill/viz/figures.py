@@ -13,7 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import read_mesh
+from ..mesh.clean import clean_mesh
+from ..mesh.subdivide import subdivide
+from ..solid.reconstruct_volume import reconstruct_volume
 from ..surface.reconstruct import reconstruct
+from ..validate import bbox_diagonal
+from .render import render_panels, render_slices
+from .viewer import write_html
 
 __all__ = ["paper_figures", "example_mesh", "far_points"]
 
@@ -39,11 +46,6 @@ def example_mesh(name, levels):
         Without pyvista.
     """
     import pyvista.examples as ex
-
-    from ..io import read_mesh
-    from ..mesh.subdivide import subdivide
-    from ..mesh.clean import clean_mesh
-    from ..validate import bbox_diagonal
 
     V, F = read_mesh(Path(ex.__file__).with_name(name))
     V, F, _ = clean_mesh(V, F)
@@ -104,10 +106,6 @@ def paper_figures(out, field, label):
     ImportError
         Without pyvista.
     """
-    from .render import render_panels, render_slices
-    from ..solid.reconstruct_volume import reconstruct_volume
-    from .viewer import write_html
-
     _ = __import__("pyvista")
     out = Path(out)
     files, lines = [], [f"  the paper's examples on pyvista's meshes (field {label}):"]

@@ -10,19 +10,68 @@ deviation ``<field>_std`` on a sequential map from 0, a mask such as ``trusted``
 """
 
 import ctypes.util
+import dataclasses
 import os
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import WriteError
+from ..errors import OptionError, WriteError
 from ..mesh.objects import mesh_arrays
 from ..results import TRUSTED
 from .viewer import MASK_STYLES, choose_field, field_kind, field_range, named_fields
 
-__all__ = ["render", "render_fields", "render_panels", "render_slices", "STD_CMAP"]
+__all__ = ["Look", "render", "render_fields", "render_panels", "render_slices", "STD_CMAP"]
 
 #: the colour map of a standard deviation (light at 0, where the samples are)
 STD_CMAP = "YlGnBu"
+
+
+@dataclass(frozen=True, kw_only=True)
+class Look:
+    """How a picture of :func:`render` or :func:`render_fields` looks (what it shows is given apart).
+
+    Its fields may also be passed to those functions one by one, as keywords
+    (``render(..., size=(320, 240))`` is ``render(..., look=Look(size=(320, 240)))``).
+
+    Attributes
+    ----------
+    title : str, optional
+        Above the picture (:func:`render_fields`: ``title: field`` above each panel).
+    size : (int, int), optional
+        Width and height in pixels; None: the function's default.
+    cmap : str
+        A matplotlib colour map name, for the fields of kind ``'value'``.
+    view : tuple of 3 floats, optional
+        Direction the camera looks from (default: pyvista's isometric view).
+    viewup : tuple of 3 floats, optional
+        The direction that points up in the picture (with ``view``).
+
+    Examples
+    --------
+    >>> Look(size=(320, 240)).cmap
+    'viridis'
+    """
+
+    title: object = None
+    size: object = None
+    cmap: str = "viridis"
+    view: object = None
+    viewup: object = None
+
+
+def _look(look, options, function):
+    """``look`` (None or a :class:`Look`) with the fields given one by one in ``options`` replaced."""
+    names = [f.name for f in dataclasses.fields(Look)]
+    if look is None:
+        look = Look()
+    elif not isinstance(look, Look):
+        raise OptionError(f"{function} look={look!r} is not a manifill.viz.render.Look; pass Look(...) or None")
+    for key in options:
+        if key not in names:
+            raise OptionError(f"{function} has no option {key!r}; pass one of its own or of Look's "
+                              f"({', '.join(names)})")
+    return replace(look, **options)
 
 
 def _style(kind, name, values, cmap, clim):
@@ -153,8 +202,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         pl.close()
 
 
-def render(V, F, values, path, *, samples=None, curves=None, title=None, name="value", names=None, field=None,
-           size=(900, 700), cmap="viridis", view=None, viewup=None):
+def render(V, F, values, path, *, samples=None, curves=None, name="value", names=None, field=None, look=None,
+           **look_options):
     """Render one surface coloured by a field into a PNG.
 
     Parameters
@@ -175,30 +224,34 @@ def render(V, F, values, path, *, samples=None, curves=None, title=None, name="v
         The names of the columns of a (n, p) ``values``.
     field : str, optional
         The name of the field to draw (default: the first).
-    title, size, cmap, view, viewup
-        See :func:`render_panels`.
+    look : Look, optional
+        Title, size (default 900 by 700 pixels), colour map and camera.
+    **look_options
+        :class:`Look`'s fields one by one (``title``, ``size``, ``cmap``, ``view``, ``viewup``),
+        replacing those of ``look``.
 
     Raises
     ------
     OptionError
-        If ``field`` names no field (the message lists them), or ``names`` does not fit.
+        If ``field`` names no field (the message lists them), ``names`` does not fit, or an
+        option is none of these.
     WriteError
         If a field does not hold one number per vertex, or the image cannot be written.
     ImportError
         Without pyvista.
     """
+    look = _look(look, look_options, "render()")
     V, F = mesh_arrays(V, F)
     fields = named_fields(values, len(V), names=names, name=name)
     chosen = choose_field(fields, field)
     x = None if chosen is None else fields[chosen]
-    render_panels([dict(V=V, F=F, values=x, samples=samples, curves=curves, title=title,
+    render_panels([dict(V=V, F=F, values=x, samples=samples, curves=curves, title=look.title,
                         name=name if chosen is None else chosen,
                         kind="value" if chosen is None else field_kind(chosen, x))],
-                  path, size=size, cmap=cmap, view=view, viewup=viewup)
+                  path, size=look.size or (900, 700), cmap=look.cmap, view=look.view, viewup=look.viewup)
 
 
-def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, title=None, size=None,
-                  cmap="viridis", view=None, viewup=None):
+def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, look=None, **look_options):
     """Render several fields of one surface side by side, each with its own colour bar and map.
 
     Parameters
@@ -211,12 +264,14 @@ def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, t
     show : list of str, optional
         The fields to draw, one panel each, in order. Default: the first field, then
         its standard deviation ``<first>_std`` and ``trusted`` where ``fields`` holds them.
-    samples, curves, title
-        As :func:`render`; the panels are titled ``title: name`` (or ``name``).
-    size : (int, int), optional
-        Default: 600 by 550 pixels a panel (one panel: 900 by 700, as :func:`render`).
-    cmap, view, viewup
-        See :func:`render_panels` (``cmap`` colours the fields of kind ``'value'``).
+    samples, curves
+        As :func:`render`.
+    look : Look, optional
+        As :func:`render`: the panels are titled ``title: name`` (or ``name``); the size is by
+        default 600 by 550 pixels a panel (one panel: 900 by 700, as :func:`render`); ``cmap``
+        colours the fields of kind ``'value'``.
+    **look_options
+        :class:`Look`'s fields one by one, replacing those of ``look``.
 
     Raises
     ------
@@ -234,19 +289,20 @@ def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, t
     >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0], method="gp", trust=1.0)
     >>> render_fields(V, F, r.point_data(), os.path.join(tempfile.mkdtemp(), "std.png"))  # doctest: +SKIP
     """
+    look = _look(look, look_options, "render_fields()")
     V, F = mesh_arrays(V, F)
     fields = named_fields(fields, len(V))
     if show is None:
         first = choose_field(fields, None)
         show = [first] + [k for k in (f"{first}_std", TRUSTED) if k in fields]
+    title = look.title
     panels = []
     for key in show:
         key = choose_field(fields, key)
         panels.append(dict(V=V, F=F, values=fields[key], samples=samples, curves=curves, name=key,
                            kind=field_kind(key, fields[key]), title=f"{title}: {key}" if title else key))
-    size = size or ((900, 700) if len(panels) == 1 else (600 * len(panels), 550))  # one panel: as render's
-    render_panels(panels, path, size=size, cmap=cmap, same_scale=False, view=view,
-                  viewup=viewup)
+    size = look.size or ((900, 700) if len(panels) == 1 else (600 * len(panels), 550))  # one panel: as render's
+    render_panels(panels, path, size=size, cmap=look.cmap, same_scale=False, view=look.view, viewup=look.viewup)
 
 
 def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 450), cmap="viridis"):

@@ -1,6 +1,15 @@
-"""``manifill batch MANIFEST``: many ``reconstruct`` / ``volume`` jobs on a Dask cluster (:mod:`manifill.cluster`)."""
+"""``manifill batch MANIFEST``: many ``reconstruct`` / ``volume`` jobs on a Dask cluster.
+
+The ``batch`` subcommand lives here, in the cluster layer, not in :mod:`manifill.cli`: a batch runs
+command lines, so the cluster layer uses the command line and not the other way round.
+:mod:`manifill.cluster` adds this module to the command line's subcommands
+(:func:`manifill.cli.main.add_command`) when it is imported, which ``import manifill`` does.
+"""
 
 import sys
+
+from ..cli.options import check_workers
+from .run import batch
 
 __all__ = ["add_parser", "run"]
 
@@ -31,9 +40,6 @@ def add_parser(sub):
 
 def run(args):
     """``manifill batch MANIFEST``: exit 0 when every job is done (or was), 1 when some failed, 2 on bad input."""
-    from ..cluster import batch
-    from .options import check_workers
-
     check_workers(args)
 
     def progress(row, finished, total):

@@ -1,0 +1,130 @@
+"""The result of Steps 1-8 on a solid (voxels or tets): :class:`VolumeReconstruction`.
+
+Made by the ``reconstruct_volume`` functions (:mod:`manifill.solid.reconstruct_volume`)
+and by the solid's gp (:mod:`manifill.solid.gp`); its own module, so that neither of
+those imports the other.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import OptionError
+from ..mesh.objects import to_meshio, to_pyvista
+from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result, with_std
+from .tets import boundary_vertices
+
+__all__ = ["VolumeReconstruction"]
+
+
+@dataclass
+class VolumeReconstruction(Result):
+    """The result of the ``reconstruct_volume`` functions (a :class:`manifill.results.Result`).
+
+    Attributes
+    ----------
+    values : numpy array
+        ``form='voxels'``: shaped like ``mask`` (plus a field axis for several
+        fields), NaN outside the solid. ``form='tets'``: one row per vertex of
+        ``TV``.
+    form : {'voxels', 'tets'}
+    surface : Reconstruction
+        Steps 1-6 on the boundary surface (on the digital surface for a mask:
+        its vertices are ``surface_voxels``); None with ``method='gp'`` (no surface pass).
+    mask : (n0, n1, n2) bool numpy array or None
+    spacing, origin : (3,) numpy arrays or None
+        The grid: voxel ``(i, j, k)`` is at ``origin + (i, j, k) * spacing``.
+    fixed : (n0, n1, n2) bool numpy array or None
+        The voxels whose values came from the surface (D).
+    TV : (N, 3) numpy array or None
+    TT : (M, 4) int64 numpy array or None
+    surface_voxels : (d, 3) int64 numpy array or None
+        For a mask: the voxel of each vertex of the digital surface.
+    report : dict
+        Counts, the fill's solver report and ``seconds`` per step.
+    samples : numpy array or None
+        Where the samples are in the solid: tets, the ``(k,)`` vertices of
+        ``TV``; a mask, the ``(k, 3)`` sampled voxels; a voxelised surface,
+        None (its samples are surface vertices, not voxels).
+    std, trusted : numpy arrays or None
+        ``method='gp'`` (:mod:`manifill.solid.gp`): the posterior std, shaped like ``values``
+        (written as ``<field>_std``), and with ``trust=`` the ``trusted`` mask.
+
+    Examples
+    --------
+    >>> mask = np.ones((3, 3, 3), dtype=bool)
+    >>> fixed = mask.copy()
+    >>> fixed[1, 1, 1] = False  # the one voxel inside
+    >>> r = VolumeReconstruction(np.zeros((3, 3, 3)), "voxels", None, mask=mask, fixed=fixed)
+    >>> sorted(r.point_data(["t"])), int(r.masks()["boundary_mask"].sum())
+    (['boundary_mask', 't'], 26)
+    """
+
+    values: np.ndarray
+    form: str
+    surface: object  # a manifill.surface.reconstruction.Reconstruction, or None
+    mask: np.ndarray = None
+    spacing: np.ndarray = None
+    origin: np.ndarray = None
+    fixed: np.ndarray = None
+    TV: np.ndarray = None
+    TT: np.ndarray = None
+    surface_voxels: np.ndarray = None
+    report: dict = field(default_factory=dict)
+    samples: np.ndarray = None
+    std: np.ndarray = None
+    trusted: np.ndarray = None
+
+    @property
+    def point_ndim(self):
+        """Leading axes of ``values`` that index points: 3 for voxels, 1 for tet vertices."""
+        return 3 if self.form == "voxels" else 1
+
+    def masks(self):
+        """The boundary mask D, and for tets the sample mask, by name.
+
+        Returns
+        -------
+        dict of str to numpy array
+            Voxels: ``{BOUNDARY_MASK: fixed}``, (n0, n1, n2) bool. Tets:
+            ``BOUNDARY_MASK`` (the vertices of :func:`manifill.solid.tets.boundary_faces`)
+            and ``SAMPLE_MASK`` (the sample vertices), (N,) bool.
+        """
+        extra = {} if self.trusted is None else {TRUSTED: self.trusted}
+        if self.form == "voxels":
+            return {BOUNDARY_MASK: self.fixed, **extra}
+        boundary = np.zeros(len(self.TV), dtype=bool)
+        boundary[boundary_vertices(self.TT)] = True
+        sample = np.zeros(len(self.TV), dtype=bool)
+        if self.samples is not None:
+            sample[self.samples] = True
+        return {BOUNDARY_MASK: boundary, SAMPLE_MASK: sample, **extra}
+
+    def point_data(self, names=None):
+        """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
+        return with_std(super().point_data(names), self.std, names, self.point_ndim)
+
+    def to_pyvista(self, names=None):
+        """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).
+
+        Needs the ``[viz]`` extra. Voxel ``(i, j, k)`` is the point at ``origin + (i, j, k) * spacing``.
+        """
+        data = self.point_data(names)
+        if self.form == "tets":
+            return to_pyvista(self.TV, self.TT, data)
+        try:
+            import pyvista as pv
+        except ImportError:
+            raise ImportError("converting to pyvista needs pyvista: pip install 'manifill[viz]'") from None
+        img = pv.ImageData(dimensions=self.mask.shape, spacing=tuple(self.spacing), origin=tuple(self.origin))
+        for name, arr in data.items():
+            arr = np.asarray(arr)
+            arr = arr.astype(np.uint8) if arr.dtype == bool else arr
+            img.point_data[name] = arr.reshape(-1, order="F")  # x fastest, as VTK orders points
+        return img
+
+    def to_meshio(self, names=None):
+        """The tetrahedral solid as a ``meshio.Mesh`` (voxels: use :meth:`to_pyvista` or ``write_vti``)."""
+        if self.form != "tets":
+            raise OptionError("a voxel result has no meshio form; use to_pyvista() or manifill.io.solids.write_vti")
+        return to_meshio(self.TV, self.TT, self.point_data(names))

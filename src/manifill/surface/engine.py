@@ -1,0 +1,80 @@
+"""Steps 1-6 on a Surface and validated samples, for any method of the registry.
+
+:func:`reconstruct_surface` configures the options once
+(:func:`manifill.surface.methods.registry.configure`), looks the method up and lets it
+run (:meth:`manifill.surface.methods.base.Method.reconstruct`): the method runs its steps
+(for the paper's pipeline: Steps 2-3, Step 1, Step 4, Steps 5-6) into a
+:class:`~manifill.surface.methods.base.Run`, which then adds what every method shares --
+the std when asked, the trust mask, the overshoot, the points' report, the timings -- and
+gives the :class:`~manifill.surface.reconstruction.Reconstruction`.
+"""
+
+
+from .methods.base import Run
+from .methods.registry import configure, method_of
+
+__all__ = ["reconstruct_surface"]
+
+
+def reconstruct_surface(surface, idx, vals, *, options=None, points=None, fields=None, prepared=None, progress=None,
+                        seconds=None, **keywords):
+    """Steps 1-6 on a Surface and validated samples, by any method.
+
+    Parameters
+    ----------
+    surface : Surface
+        A mesh (:meth:`manifill.surface.surface.Surface.from_mesh`) or a digital surface.
+    idx : (k,) int64 numpy array
+        Sample vertices, sorted and unique (as :func:`manifill.validate.as_samples` returns them).
+    vals : (k, p) float64 numpy array
+        Sample values, one column per field (always two-dimensional).
+    options : Options, optional
+        The options (:class:`manifill.surface.options.Options`); ``**keywords`` (those of
+        :func:`manifill.reconstruct`: ``method``, ``solver``, ``bounds``, ...) build them, or
+        change the given ones.
+    points : PointSamples, optional
+        Samples given as positions (:func:`manifill.surface.points.point_samples`);
+        ``idx`` and ``vals`` are then their nearest vertices (the partition
+        methods' samples), and the methods that take points constrain the points themselves.
+    fields : int, optional
+        How many fields will share the value-independent pieces (default: ``vals``'
+        columns); with many, ``solver='auto'`` factorises and Step 4's linear curve
+        values become one sparse map.
+    prepared : Prepared, optional
+        Keeps those pieces for the next call with the same samples
+        (:mod:`manifill.surface.prepared`; what :class:`manifill.Reconstructor` passes).
+    progress : callable, optional
+        Called with the name of each step as it starts.
+    seconds : dict, optional
+        Timings the caller measured before (e.g. ``validate``, ``graph``). The
+        result's ``report['seconds']`` is this dict, filled in place with one
+        entry per step run and ``total``: the given entries' sum plus the time
+        spent here.
+
+    Returns
+    -------
+    Reconstruction
+        With ``values`` of shape (n, p), never squeezed.
+
+    Raises
+    ------
+    OptionError, SampleError, SolveError
+        As for :func:`manifill.reconstruct`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from manifill.mesh.shapes import icosphere
+    >>> from manifill.surface.surface import Surface
+    >>> V, F = icosphere(2)
+    >>> idx = np.array([0, 10, 50, 90, 120])
+    >>> r = reconstruct_surface(Surface.from_mesh(V, F), idx, V[idx, :1] * 2.0)
+    >>> r.values.shape, bool(np.allclose(r.values[idx, 0], V[idx, 0] * 2.0)), r.report["preset"]
+    ((162, 1), True, 'default')
+    """
+    options = configure(options, **keywords)
+    method = method_of(options.method)
+    run = Run(surface, idx, vals, options, points=points, fields=vals.shape[1] if fields is None else fields,
+              prepared=prepared, progress=progress, seconds={} if seconds is None else seconds,
+              reconstruct=reconstruct_surface, lookup=method_of)
+    return method.reconstruct(run)

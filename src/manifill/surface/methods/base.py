@@ -1,0 +1,231 @@
+"""What a reconstruction method is: :class:`Method` (what it can do, how it fills) and :class:`Run` (one call).
+
+A method is one object. Generic code (:func:`manifill.reconstruct_surface`,
+:class:`manifill.Reconstructor`, cross-validation, the command line) asks it, never its
+name:
+
+- its capabilities: ``can_bound``, ``can_smooth``, ``at_points`` (samples inside faces
+  constrained where they are, not at the nearest vertex), ``gives_std`` (a std through
+  ``uncertainty``), ``gp_mean`` (the Gaussian process's own mean and std),
+  ``needs_triangles``, ``sparse_map`` (its linear map is sparse), ``partitions`` (it runs
+  Steps 2-3);
+- :meth:`Method.steps`: the steps it runs (a progress bar's total);
+- :meth:`Method.check`: refuse an option it cannot use, with a one-line error;
+- :meth:`Method.linear`: whether its result is linear in the values (then it has a map);
+- :meth:`Method.preparable`: whether a zero run builds its value-independent pieces;
+- :meth:`Method.needs_levels`: whether Step 1's levels are needed whatever ``check`` says;
+- :meth:`Method.fill`: the values (and a std, if it makes one) for one :class:`Run`.
+
+:class:`Run` holds one call's surface, samples and options and what the steps write:
+the report, the timings, Step 1's checks, the curves; :meth:`Run.finish` gives the
+:class:`~manifill.surface.reconstruction.Reconstruction` every method returns.
+"""
+
+import time
+from contextlib import contextmanager
+
+import numpy as np
+
+from ...errors import OptionError, SampleError
+from ...progress import tick
+from ..gp import energy_uncertainty, trust_mask
+from ..gradual import check_gradual, violation_message
+from ..points import points_report
+from ..reconstruction import Reconstruction
+from ...linalg.gp import as_gp_options
+
+__all__ = ["Method", "Run", "CHECK_FIELDS"]
+
+#: ``check=None`` runs Step 1 (the gradual variation report) for every field when there are at most this many
+#: fields, and skips it for more (each field costs a few shortest-path passes); ``check=True`` runs it always.
+CHECK_FIELDS = 10
+
+
+class Method:
+    """A reconstruction method: its name, capabilities and fill (see the module docstring).
+
+    Subclasses set the class attributes and implement :meth:`fill`; the defaults describe a
+    method that takes none of the optional constraints.
+    """
+
+    name = None
+    #: One line for the docs and ``--help``.
+    summary = ""
+    can_bound = False
+    can_smooth = False
+    at_points = False
+    gives_std = False
+    gp_mean = False
+    needs_triangles = False
+    sparse_map = False
+    partitions = False
+    #: It runs other methods and returns their result (``auto``): no candidate of cross-validation itself.
+    delegates = False
+    #: The steps after ``graph``, by the names passed to ``progress``.
+    step_names = ()
+
+    def steps(self, options):
+        """The progress steps this method runs with ``options`` (after ``graph``)."""
+        return self.step_names
+
+    def check(self, options):
+        """Refuse an option this method cannot use (:class:`~manifill.errors.OptionError`, one line)."""
+        fit = options.fit
+        if fit.bounds is not None and not self.can_bound:
+            raise OptionError(f"method={self.name!r} takes no bounds; pass bounds=None, or use a method that holds "
+                              f"them (e.g. method='biharmonic', bounds='samples')")
+        if (fit.smoothing is not None or fit.sample_weights is not None) and not self.can_smooth:
+            raise OptionError(f"smoothing and sample_weights apply to the energy methods (harmonic, biharmonic, "
+                              f"triharmonic) and rbf, not to method={self.name!r}; pick one of those")
+
+    def linear(self, options):
+        """``(linear, why not)``: whether the result is linear in the sample values, for this method's options."""
+        return False, f"method={self.name!r} is not linear in the values"
+
+    def preparable(self, options):
+        """Whether a run on zero values builds pieces worth keeping (a partition, a factorisation)."""
+        return False
+
+    def needs_levels(self, options):
+        """Whether Step 1 must run (its levels are used), whatever ``check`` says."""
+        return False
+
+    def needs_gradual(self, options):
+        """Whether a broken gradual variation condition is an error (not only reported)."""
+        return False
+
+    def exact_at(self, run):
+        """Whether samples given as positions were constrained where they are (for ``report['points']``)."""
+        return self.at_points
+
+    def fill(self, run):
+        """``(values (n, p), std (n, p) or None)`` for one :class:`Run`; writes its report into ``run``."""
+        raise NotImplementedError
+
+    def uncertainty(self, run, values):
+        """``(std, report)`` of the result read as a Gaussian field (methods with ``gives_std``)."""
+        raise OptionError(f"method={self.name!r} has no probability model for a std")
+
+    def reconstruct(self, run):
+        """The whole reconstruction for one :class:`Run` (a method that delegates overrides this)."""
+        values, std = self.fill(run)
+        return run.finish(self, values, std)
+
+    def __repr__(self):
+        return f"<manifill method {self.name!r}>"
+
+
+class Run:
+    """One reconstruction in progress (see the module docstring).
+
+    Parameters
+    ----------
+    surface : Surface
+    idx : (k,) int64 numpy array
+        Sorted unique sample vertices (the nearest vertices when ``points`` is given).
+    vals : (k, p) numpy array
+    options : Options
+        Configured (:func:`manifill.surface.methods.registry.configure`).
+    points : PointSamples or None
+    fields : int
+        How many fields share the value-independent pieces.
+    prepared : Prepared or None
+    progress : callable or None
+    seconds : dict
+        Timings so far, filled in place.
+    reconstruct : callable
+        ``reconstruct(surface, idx, vals, options=..., points=..., seconds=...)``: the engine itself, for a
+        method that runs others (``auto``).
+    lookup : callable
+        A method by name (the registry's ``method_of``), for the same.
+    """
+
+    def __init__(self, surface, idx, vals, options, *, points, fields, prepared, progress, seconds, reconstruct,
+                 lookup):
+        self.surface, self.idx, self.vals, self.options, self.points = surface, idx, vals, options, points
+        self.fields, self.prepared, self.progress, self.seconds = fields, prepared, progress, seconds
+        self.reconstruct, self.lookup = reconstruct, lookup
+        self.t0 = time.perf_counter()
+        self.before = sum(seconds.values())
+        n = surface.n
+        self.report = {"method": options.method, "curve_values": None, "samples": int(idx.size), "vertices": n,
+                       "seconds": seconds}
+        if options.preset is not None:
+            self.report["preset"] = options.preset
+        self.checks = []
+        self.curves, self.components = [], np.zeros(n, dtype=np.int64)
+        self.on_curve = np.zeros(n, dtype=bool)
+        self.on_curve[idx] = True
+
+    @property
+    def p(self):
+        """Number of fields."""
+        return self.vals.shape[1]
+
+    @contextmanager
+    def step(self, name, key=None):
+        """Tell ``progress`` the step ``name`` starts and time it into ``seconds[key or name]``."""
+        tick(self.progress, name)
+        t = time.perf_counter()
+        yield
+        self.seconds[key or name] = time.perf_counter() - t
+
+    def check_runs(self, method):
+        """Whether Step 1 runs: always where its levels are needed, else as ``check`` says (None: a few fields)."""
+        o = self.options
+        if method.needs_levels(o) or (o.fill.solver == "iterate" and o.fill.init == "gvf"):
+            return True
+        if o.step1.check is None:
+            return self.p <= CHECK_FIELDS
+        return bool(o.step1.check)
+
+    def step1(self, method, starts=None):
+        """Step 1 per field: levels, Lipschitz constant, gradual variation (``report['check']``)."""
+        p = self.p
+        starts = [None] * p if starts is None else starts
+        with self.step("check"):
+            if self.check_runs(method):
+                self.checks = [check_gradual(self.surface, self.idx, self.vals[:, j],
+                                             levels=self.options.step1.levels, distance="hops", start=starts[j])
+                               for j in range(p)]
+            else:
+                self.report["check_skipped"] = (f"Step 1 was not run for {p} fields (more than {CHECK_FIELDS}); "
+                                                f"pass check=True (CLI --check) to run it for every field")
+            if method.needs_gradual(self.options):
+                for c in self.checks:
+                    if not c.holds:
+                        raise SampleError(violation_message(c))
+            self.report["check"] = [c.summary() for c in self.checks]
+
+    def finish(self, method, values, std=None):
+        """The :class:`Reconstruction`: the std (if asked), the trust mask, overshoot, points, timings."""
+        o, report, points = self.options, self.report, self.points
+        if o.uq.uncertainty and std is None:  # the method read as a Gaussian field
+            with self.step("uncertainty"):
+                std, report["uncertainty"] = method.uncertainty(self, values)
+        sample_vals = self.vals if points is None else points.values
+        trusted = None
+        if o.uq.trust is not None:
+            values, trusted, threshold = trust_mask(values, std, sample_vals, o.uq.trust, o.uq.untrusted)
+            report["trust"] = {"threshold": threshold, "untrusted": int((~trusted).sum()), "marked": o.uq.untrusted}
+        lo, hi = sample_vals.min(axis=0), sample_vals.max(axis=0)
+        # per column first (reductions, no (n, p) temporaries); fmax/fmin skip NaN (untrusted vertices)
+        d = np.maximum(np.fmax.reduce(values, axis=0) - hi, lo - np.fmin.reduce(values, axis=0))
+        report["overshoot"] = float(np.nanmax(d)) if np.isfinite(d).any() else 0.0
+        if points is not None:
+            report["points"] = points_report(points, method.exact_at(self))
+        self.seconds["total"] = self.before + time.perf_counter() - self.t0
+        s = self.surface
+        return Reconstruction(values=values, curves=self.curves, components=self.components, on_curve=self.on_curve,
+                              levels=[c.levels for c in self.checks], report=report, V=s.V, F=s.F, idx=self.idx,
+                              points=None if points is None else points.located, std=std, trusted=trusted)
+
+    def energy_std(self, k, values):
+        """``(std, report)`` of an energy method's result (order ``k``) read as an intrinsic Gaussian field."""
+        o, points = self.options, self.points
+        w = o.fit.sample_weights
+        return energy_uncertainty(
+            self.surface, k, values, (self.idx, self.vals, points), weights=o.fill.weights,
+            fill_report=self.report.get("harmonic", {}), gp=as_gp_options(o.uq.gp),
+            sample_weights=w if w is None or points is None else points.weights(w),
+            solver="direct" if o.fill.solver == "iterate" else o.fill.solver)

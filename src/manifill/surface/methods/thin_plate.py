@@ -1,0 +1,61 @@
+"""``method='rbf'``: the thin-plate spline on the positions, for fields that live in space.
+
+SciPy's thin-plate RBF through the samples (:func:`manifill.surface.rbf.thin_plate`):
+through the closest surface points of samples given as positions when every point was
+located, else through their nearest vertices. ``smoothing`` a number gives a smoothing
+spline; it has no mesh energy to minimise within ``bounds`` and refuses them. Linear in the
+values unless ``smoothing='auto'``.
+"""
+
+import numpy as np
+
+from ...errors import OptionError
+from ..rbf import thin_plate
+from .base import Method
+
+__all__ = ["RBF", "ThinPlate"]
+
+
+def _constrained(points):
+    """Whether every point got its constraint (it lies on the surface where it was located)."""
+    return points is not None and points.constraint.size and (points.constraint >= 0).all()
+
+
+class ThinPlate(Method):
+    """The thin-plate spline in space (see the module docstring)."""
+
+    name = "rbf"
+    summary = "SciPy's thin-plate spline on the positions: fields that live in space; leaks across gaps"
+    can_smooth = True
+    at_points = True  # through the points themselves when every one was located (exact_at says)
+    step_names = ("check", "rbf")
+
+    def check(self, options):
+        if options.fit.bounds is not None:
+            raise OptionError("method='rbf' has no mesh energy to minimise within bounds; pass bounds=None, or use an "
+                              "energy method (e.g. method='biharmonic', bounds='samples')")
+        super().check(options)
+
+    def linear(self, options):
+        return options.fit.smoothing != "auto", "smoothing='auto' picks lambda per field"
+
+    def exact_at(self, run):
+        return bool(_constrained(run.points))
+
+    def fill(self, run):
+        run.step1(self)
+        points, w = run.points, run.options.fit.sample_weights
+        with run.step("rbf"):
+            X, Y = run.surface.V[run.idx], run.vals
+            if _constrained(points):
+                Y = points.values
+                X = np.empty((len(Y), run.surface.V.shape[1]))
+                X[points.constraint] = points.located.points
+                if w is not None:
+                    w = points.weights(w)
+            values, run.report["rbf"] = thin_plate(run.surface.V, X, Y, smoothing=run.options.fit.smoothing,
+                                                   sample_weights=w)
+        return values, None
+
+
+RBF = ThinPlate()

@@ -1,0 +1,205 @@
+"""The options of a reconstruction: one frozen object, built and checked once, grouped by concern.
+
+:class:`Options` is what :func:`manifill.reconstruct`, :class:`manifill.Reconstructor`,
+:func:`manifill.cross_validate`, the command line and the batch hand down; every step reads
+its group and nothing copies the options by name again. The groups:
+
+- ``fill`` (:class:`FillOptions`): how the surface is cut and filled -- ``partition``,
+  ``weights``, ``distance``, ``curve_values``, ``solver``, ``iteration``, ``init``,
+  ``seed``, ``tol``, ``maxiter``, ``on_empty``;
+- ``step1`` (:class:`CheckOptions`): Step 1's ``levels`` and whether it runs (``check``);
+- ``fit`` (:class:`FitOptions`): ``bounds``, ``smoothing``, ``sample_weights``;
+- ``points`` (:class:`PointOptions`): how samples are read -- ``duplicates``,
+  ``max_distance``;
+- ``uq`` (:class:`UncertaintyOptions`): the Gaussian process and the std -- ``gp``,
+  ``uncertainty``, ``trust``, ``untrusted``.
+
+:meth:`Options.build` takes the flat keywords users write (``solver='direct'``) and
+checks each against its closed set; which method runs, and whether it can use what
+was given, is the method registry's to say (:func:`manifill.surface.methods.registry.configure`).
+"""
+
+import difflib
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+from ..errors import OptionError
+from ..linalg.backends import ITERATIONS, SOLVERS
+from ..mesh.graph import DISTANCES
+from ..mesh.laplacian import WEIGHTS
+from ..validate import check_option
+from .curve_values import CURVE_VALUES
+from .fill import INITS
+from .harmonic import ON_EMPTY
+from .partition import PARTITIONS
+
+__all__ = ["Options", "FillOptions", "CheckOptions", "FitOptions", "PointOptions", "UncertaintyOptions",
+           "DUPLICATES", "UNTRUSTED", "OPTION_NAMES"]
+
+#: What several samples on one vertex with different values do: refuse, or average.
+DUPLICATES = ("error", "mean")
+#: What ``untrusted=`` does where the std exceeds the threshold: keep the value (the mask says), or NaN.
+UNTRUSTED = ("mask", "nan")
+
+
+@dataclass(frozen=True)
+class FillOptions:
+    """Steps 2-6: the partition, the curve values and the fill's solve (defaults as :func:`manifill.reconstruct`)."""
+
+    partition: str = "delaunay"
+    weights: str = "cotan"
+    distance: str = "length"
+    curve_values: object = None  # None: the method's own ('hermite' for the pipeline; the default preset's)
+    solver: str = "auto"
+    iteration: str = "gauss-seidel"
+    init: str = "gvf"
+    seed: int = 0
+    tol: object = None
+    maxiter: object = None
+    on_empty: str = "error"
+
+    def validate(self):
+        check_option("partition", self.partition, PARTITIONS)
+        check_option("weights", self.weights, WEIGHTS)
+        check_option("distance", self.distance, DISTANCES)
+        if self.curve_values is not None:
+            check_option("curve_values", self.curve_values, CURVE_VALUES)
+        check_option("solver", self.solver, SOLVERS)
+        check_option("iteration", self.iteration, ITERATIONS)
+        check_option("init", self.init, INITS)
+        check_option("on_empty", self.on_empty, ON_EMPTY)
+
+
+@dataclass(frozen=True)
+class CheckOptions:
+    """Step 1: the value ``levels`` and whether the check runs (None: for up to a few fields)."""
+
+    levels: object = None
+    check: object = None
+
+    def validate(self):
+        if self.check is not None and not isinstance(self.check, (bool, np.bool_)):
+            raise OptionError(f"check={self.check!r} is not True, False or None; pass one of those")
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """How the samples bind the field: ``bounds`` on the values, ``smoothing`` (soft constraints), their weights."""
+
+    bounds: object = None
+    smoothing: object = None
+    sample_weights: object = None
+
+
+@dataclass(frozen=True)
+class PointOptions:
+    """How samples are read: repeated vertices (``duplicates``) and positions far from the surface."""
+
+    duplicates: str = "error"
+    max_distance: object = None
+
+    def validate(self):
+        check_option("duplicates", self.duplicates, DUPLICATES)
+
+
+@dataclass(frozen=True)
+class UncertaintyOptions:
+    """The Gaussian process's options (``gp``), the std (``uncertainty``) and the trust mask."""
+
+    gp: object = None
+    uncertainty: object = None
+    trust: object = None
+    untrusted: str = "mask"
+
+    def validate(self):
+        if self.untrusted not in UNTRUSTED:
+            raise OptionError(f"untrusted={self.untrusted!r} is not one of {', '.join(UNTRUSTED)}; pass one of those")
+        if self.trust is not None:
+            try:
+                t = float(self.trust)
+            except (TypeError, ValueError):
+                t = float("nan")
+            if not (np.isfinite(t) and t > 0):
+                raise OptionError(f"trust={self.trust!r} is not a number > 0 (a multiple of the samples' standard "
+                                  f"deviation); pass one")
+
+
+#: The groups of :class:`Options` by attribute name, and each flat keyword's group.
+GROUPS = {"fill": FillOptions, "step1": CheckOptions, "fit": FitOptions, "points": PointOptions,
+          "uq": UncertaintyOptions}
+OPTION_GROUP = {f.name: g for g, cls in GROUPS.items() for f in fields(cls)}
+#: Every keyword :meth:`Options.build` takes (besides ``method``).
+OPTION_NAMES = tuple(OPTION_GROUP)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Options:
+    """Everything a reconstruction is asked, checked once (see the module docstring).
+
+    Attributes
+    ----------
+    method : str
+        The method that runs (a name of the registry, :mod:`manifill.surface.methods`).
+    preset : str or None
+        The preset it came from (``'default'`` for ``method=None``), or None.
+    fill, step1, fit, points, uq
+        The groups.
+    given : frozenset of str
+        The keywords the caller gave, other than None (a preset fills in only the others).
+
+    Examples
+    --------
+    >>> o = Options.build(method="biharmonic", solver="direct", bounds="samples")
+    >>> o.method, o.fill.solver, o.fit.bounds, o.fill.weights
+    ('biharmonic', 'direct', 'samples', 'cotan')
+    >>> o.replace(solver="amg").fill.solver
+    'amg'
+    >>> Options.build(sovler="direct")
+    Traceback (most recent call last):
+    ...
+    manifill.errors.OptionError: no option 'sovler' (did you mean 'solver'?); see help(manifill.reconstruct)
+    """
+
+    method: object = None
+    preset: object = None
+    fill: FillOptions = field(default_factory=FillOptions)
+    step1: CheckOptions = field(default_factory=CheckOptions)
+    fit: FitOptions = field(default_factory=FitOptions)
+    points: PointOptions = field(default_factory=PointOptions)
+    uq: UncertaintyOptions = field(default_factory=UncertaintyOptions)
+    given: frozenset = frozenset()
+
+    @classmethod
+    def build(cls, *, method=None, **keywords):
+        """Options from flat keywords (those of :func:`manifill.reconstruct`), each checked against its set."""
+        return cls(method=method).replace(**keywords)
+
+    def replace(self, **keywords):
+        """A copy with these flat keywords (and ``method``/``preset``) changed, checked again."""
+        top = {key: keywords.pop(key) for key in ("method", "preset") if key in keywords}
+        per = {}
+        for key, value in keywords.items():
+            if key not in OPTION_GROUP:
+                close = difflib.get_close_matches(key, OPTION_NAMES + ("method",), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise OptionError(f"no option {key!r}{hint}; see help(manifill.reconstruct)")
+            per.setdefault(OPTION_GROUP[key], {})[key] = value
+        groups = {g: replace(getattr(self, g), **kw) for g, kw in per.items()}
+        # None is "not given" (a preset fills it in), as in every keyword's default
+        given = self.given | frozenset(k for k, v in keywords.items() if v is not None)
+        out = replace(self, **top, **groups, given=given)
+        for g in per:
+            getattr(getattr(out, g), "validate", lambda: None)()
+        return out
+
+    def get(self, name):
+        """One option by its flat keyword (``o.get('solver') == o.fill.solver``)."""
+        if name in ("method", "preset"):
+            return getattr(self, name)
+        return getattr(getattr(self, OPTION_GROUP[name]), name)
+
+    def keywords(self, *, given_only=False):
+        """The flat keywords (all, or those the caller gave), as :meth:`build` takes them."""
+        names = [n for n in OPTION_NAMES if not given_only or n in self.given]
+        return {n: self.get(n) for n in names}

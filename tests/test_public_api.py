@@ -1,0 +1,101 @@
+"""The public API's one argument order: geometry, then samples, positional; every option keyword-only.
+
+Walks ``manifill.__all__``: every function, every class's constructor (and its ``from_*``
+constructors) may take positionally only the names of :data:`POSITIONAL`, and everything
+after them must come after ``*``. Result records are built by manifill, not called, and
+are left out (:data:`RECORDS`).
+"""
+
+import dataclasses
+import inspect
+
+import pytest
+
+import manifill
+from manifill.results import Result
+
+#: The names a public entry point may take positionally: the data it works on, never an option.
+POSITIONAL = {
+    # geometry
+    "V", "F", "T",  # vertices, triangles, tetrahedra: (V, F) a surface, (V, T) a solid
+    "mask",  # a voxel solid (its spacing and origin are options: each defaults to the unit grid)
+    "surface",  # a prepared manifill.Surface (reconstruct_surface, values_on_curves, fill_patches)
+    "G",  # the graph of a surface (check_gradual, partition)
+    "A", "L",  # an energy matrix (QuadraticSolver, min_quad_with_fixed), a Laplacian (from_laplacian)
+    # samples
+    "idx", "vals",  # sample vertices (or positions) and their values
+    "voxels",  # sample voxels (k, 3) of a mask
+    "points",  # positions to locate on a surface (locate_points)
+    "part",  # Steps 2-3's Partition, what Step 4 (values_on_curves) works on
+    # files and what a writer writes
+    "path",  # the file read or written (reconstruct_series: the series written)
+    "point_data", "values", "fields",  # what write_mesh / write_tets, write_values, write_vti write
+    # batches
+    "jobs",  # batch's manifest or job list
+    # the method registry
+    "name",  # method_of(name): the method looked up
+}
+
+#: Records manifill builds and returns (their fields are their contents); no one calls them with options.
+RECORDS = {
+    "Result", "Reconstruction", "VolumeReconstruction", "BatchResult", "CrossValidation", "GradualCheck",
+    "Partition", "CurveValues", "SurfacePoints",
+    "Surface",  # a record too: built by Surface.from_mesh, which is checked
+}
+
+
+def entry_points():
+    """``(name, callable)``: every public function, constructor and ``from_*`` constructor."""
+    out = []
+    for name in manifill.__all__:
+        obj = getattr(manifill, name)
+        if inspect.isclass(obj) and issubclass(obj, BaseException):
+            continue
+        if inspect.isclass(obj):
+            out += [(f"{name}.{m}", getattr(obj, m)) for m in sorted(vars(obj)) if m.startswith("from_")]
+            if name in RECORDS:
+                continue
+        out.append((name, obj))
+    return out
+
+
+def positional_options(fn):
+    """The parameters of ``fn`` that can be passed by position and are not in :data:`POSITIONAL`."""
+    bad = []
+    for p in inspect.signature(fn).parameters.values():
+        if p.kind is p.VAR_POSITIONAL:
+            bad.append(f"*{p.name}")
+        elif p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) and p.name not in POSITIONAL | {"self", "cls"}:
+            bad.append(p.name)
+    return bad
+
+
+def test_records_are_records():
+    # the records left out are dataclasses or Results, not entry points hiding from the check below
+    for name in RECORDS:
+        obj = getattr(manifill, name)
+        assert dataclasses.is_dataclass(obj) or issubclass(obj, Result), name
+
+
+@pytest.mark.parametrize("name, fn", entry_points(), ids=lambda x: x if isinstance(x, str) else "")
+def test_options_are_keyword_only(name, fn):
+    bad = positional_options(fn)
+    code = inspect.unwrap(fn)
+    where = f"{inspect.getsourcefile(code).split('src/manifill/')[-1]}:{inspect.getsourcelines(code)[1]}"
+    assert not bad, (f"manifill.{name} ({where}) takes the option(s) {', '.join(map(repr, bad))} by position; "
+                     f"put them after '*' (or, if one is data, add its name to POSITIONAL with a reason)")
+
+
+def test_the_check_catches_a_positional_option():
+    def good(V, F, idx, vals, *, method=None, **options):
+        pass
+
+    def bad(V, F, idx, vals, methods=None, *, seed=0):
+        pass
+
+    def star(V, F, *args):
+        pass
+
+    assert positional_options(good) == []
+    assert positional_options(bad) == ["methods"]
+    assert positional_options(star) == ["*args"]

@@ -56,7 +56,7 @@ def test_biharmonic_overshoots_and_bounds_remove_it():
     from manifill.linalg.energies import polyharmonic_energy
     from manifill.mesh.laplacian import mass_matrix
 
-    E = polyharmonic_energy(manifill.laplacian(V, F), mass_matrix(V, F, kind="voronoi"), 2)
+    E = polyharmonic_energy(manifill.laplacian(V, F), mass_matrix(V, F, mass="voronoi"), 2)
     g = E @ r.values
     free_idx = np.setdiff1d(np.arange(len(V)), IDX)
     at_lo = free_idx[r.values[free_idx] <= VALS.min()]

@@ -147,6 +147,8 @@ class Options:
         The groups.
     given : frozenset of str
         The keywords the caller gave, other than None (a preset fills in only the others).
+    checked : bool
+        Resolved and checked by the registry's ``configure`` (a copy changed by :meth:`replace` is not).
 
     Examples
     --------
@@ -169,6 +171,7 @@ class Options:
     points: PointOptions = field(default_factory=PointOptions)
     uq: UncertaintyOptions = field(default_factory=UncertaintyOptions)
     given: frozenset = frozenset()
+    checked: bool = False
 
     @classmethod
     def build(cls, *, method=None, **keywords):
@@ -188,7 +191,7 @@ class Options:
         groups = {g: replace(getattr(self, g), **kw) for g, kw in per.items()}
         # None is "not given" (a preset fills it in), as in every keyword's default
         given = self.given | frozenset(k for k, v in keywords.items() if v is not None)
-        out = replace(self, **top, **groups, given=given)
+        out = replace(self, **top, **groups, given=given, checked=False)
         for g in per:
             getattr(getattr(out, g), "validate", lambda: None)()
         return out

@@ -84,6 +84,8 @@ def configure(options=None, **keywords):
     manifill.errors.OptionError: method='rbf' has no mesh energy to minimise within bounds; pass bounds=None, ...
     """
     o = Options() if options is None else options
+    if o.checked and not keywords:
+        return o
     if keywords:
         if "method" in keywords:
             keywords.setdefault("preset", None)
@@ -99,7 +101,7 @@ def configure(options=None, **keywords):
     uncertainty = _check_uncertainty(method, o)
     _check_gp(method, o, uncertainty)
     method.check(o)
-    return replace(o, uq=replace(o.uq, uncertainty=uncertainty))
+    return replace(o, uq=replace(o.uq, uncertainty=uncertainty), checked=True)
 
 
 def _check_uncertainty(method, o):

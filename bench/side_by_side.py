@@ -61,10 +61,10 @@ def main(argv=None):
     ap.add_argument("--old", required=True, help="the src folder of the other version")
     ap.add_argument("--new", default=str(Path(__file__).resolve().parents[1] / "src"), help="default: this checkout")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
+    ap.add_argument("--cases", default=None, help="case names separated by semicolons (default: all)")
     ap.add_argument("--save", default=None)
     args = ap.parse_args(argv)
-    names = args.cases.split(",") if args.cases else list(CASES)
+    names = args.cases.split(";") if args.cases else list(CASES)
     rows = {}
     print("| case | old s | new s | new / old |\n|---|---|---|---|", flush=True)
     for name in names:

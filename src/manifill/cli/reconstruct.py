@@ -133,7 +133,7 @@ def _summary(args, r, V, S):
               f"vertices, {pr['patches']} patches (largest {max(pr['patch_sizes'] or [0]):,})")
     if "harmonic" in rep:
         _fill_line(args, rep)
-    if "rbf" in rep:
+    if rep.get("rbf"):
         print(f"rbf: thin-plate spline through the sample positions ({rep['rbf']['dims']}-D)")
     if "auto" in rep:  # method='auto': the cross-validation table and the choice
         print(rep["auto"]["table"])

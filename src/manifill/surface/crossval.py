@@ -164,7 +164,7 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
         vals, _ = as_values(vals, len(P))
         loc = locate_points(surface.V, surface.F, P, max_distance=max_distance)
         return run_folds(surface, loc.nearest_vertex, vals, cands, folds=folds, seed=seed, options=base,
-                         reconstruct=reconstruct_surface,
+                         reconstruct=reconstruct_surface, lookup=method_of,
                          positions=(P, loc, duplicates, lambda name: method_of(name).at_points))
     if max_distance is not None:
         raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
@@ -174,4 +174,5 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
         if idx.size != raw.size:
             raise SampleError("sample_weights with repeated sample vertices: merge the samples first, one per vertex")
         base = base.replace(sample_weights=np.asarray(base.fit.sample_weights, dtype=np.float64)[np.argsort(raw)])
-    return run_folds(surface, idx, vals, cands, folds=folds, seed=seed, options=base, reconstruct=reconstruct_surface)
+    return run_folds(surface, idx, vals, cands, folds=folds, seed=seed, options=base, reconstruct=reconstruct_surface,
+                     lookup=method_of)

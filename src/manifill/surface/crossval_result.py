@@ -59,6 +59,8 @@ class CrossValidation:
     seed: int
     samples: int
     labels: np.ndarray = field(default=None, repr=False)
+    #: Label -> what the method's win suggests (its ``cv_hint``: for rbf, a field that lives in space).
+    hints: dict = field(default_factory=dict, repr=False)
 
     def ranking(self):
         """The labels, best first: methods that ran on every fold by error, then the others."""
@@ -137,8 +139,8 @@ class CrossValidation:
                 text += f", within 5% of {nxt} ({_pct(en)}), as good"
             else:
                 text += f", {en / e:.3g}x lower than the next, {nxt} ({_pct(en)})"
-        if name == "rbf":
-            text += "; the field looks like it lives in space rather than on the surface"
+        if self.hints.get(best):
+            text += f"; {self.hints[best]}"
         return text + "."
 
     def summary(self):

@@ -71,7 +71,7 @@ def label_of(name, own):
     return " ".join([name] + [f"{k}={v}" for k, v in own.items()])
 
 
-def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstruct, positions=None):
+def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstruct, positions=None, lookup=None):
     """Cross-validate validated samples on a Surface.
 
     Parameters
@@ -88,8 +88,10 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
         The options of every fit (a candidate's own override them; ``on_empty`` is set to ``'nan'``).
     reconstruct : callable
         The fit: ``reconstruct(surface, idx, vals, options=..., points=...)`` -> Reconstruction.
-    positions : (P, SurfacePoints, duplicates), optional
+    positions : (P, SurfacePoints, duplicates, at_points), optional
         Samples given as positions ``P`` (``(k, 3)``), located; ``idx`` is then their nearest vertices.
+    lookup : callable, optional
+        A method by name (the registry's ``method_of``): its ``cv_hint`` goes into the result's hints.
 
     Returns
     -------
@@ -128,8 +130,9 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
         res["seconds"][label] = seconds
         res["failures"][label] = failures
         res["excluded"][label] = int(miss.sum())
+    hints = {} if lookup is None else {label: lookup(name).cv_hint for label, (name, _) in candidates.items()}
     return CrossValidation(methods=list(candidates), candidates=candidates, folds=nf, loo=folds == "loo",
-                           seed=seed, samples=k, labels=labels, **res)
+                           seed=seed, samples=k, labels=labels, hints=hints, **res)
 
 
 def _fit(surface, idx, vals, train, options, reconstruct, positions):

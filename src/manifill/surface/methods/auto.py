@@ -55,7 +55,7 @@ class Auto(Method):
                       if not (surface.F is None and run.lookup(name).needs_triangles)]
             cands = {label_of(name, own): (name, own) for name, own in usable}
             cv = run_folds(surface, idx, vals, cands, folds=AUTO_FOLDS if k >= AUTO_FOLDS else "loo",
-                           seed=o.fill.seed, options=base, reconstruct=run.reconstruct)
+                           seed=o.fill.seed, options=base, reconstruct=run.reconstruct, lookup=run.lookup)
         if cv.best is None:
             first = next(iter(cv.failures[cv.ranking()[0]].values()), "no prediction")
             raise SolveError(f"method='auto': no candidate ran on every fold (e.g. {cv.ranking()[0]}: {first}); "

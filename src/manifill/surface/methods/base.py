@@ -61,6 +61,8 @@ class Method:
     partitions = False
     #: It runs other methods and returns their result (``auto``): no candidate of cross-validation itself.
     delegates = False
+    #: What it suggests when it wins a cross-validation (appended to the recommendation), or "".
+    cv_hint = ""
     #: The steps after ``graph``, by the names passed to ``progress``.
     step_names = ()
 

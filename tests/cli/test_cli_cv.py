@@ -99,3 +99,14 @@ def test_cv_with_samples_at_positions(capsys, case):
     code, out, err = run(capsys, "cv", case["path"], path, "--folds", "5", "--methods", "rbf,biharmonic")
     assert code == 0, err
     assert "30 samples" in out and "samples at positions" in out
+
+
+def test_auto_prints_the_table_before_the_fill_it_chose(capsys, case):
+    code, out, err = run(capsys, "reconstruct", case["path"], case["samples"], "--method", "auto", "-o",
+                         case["folder"] / "out3.csv")
+    assert code == 0, err
+    lines = out.splitlines()
+    table = next(i for i, line in enumerate(lines) if "cross-validation of" in line)
+    chose = next(i for i, line in enumerate(lines) if line.startswith("auto: chose"))
+    fill = [i for i, line in enumerate(lines) if line.startswith(("steps 5-6", "rbf:")) or " fill (" in line]
+    assert fill and table < chose < min(fill)

@@ -237,3 +237,49 @@ def test_samples_at_positions_are_cross_validated_where_they_are():
     assert cv.errors["biharmonic"] > 1e-4 and np.isfinite(cv.errors["gvf-harmonic"])
     with pytest.raises(OptionError, match="max_distance"):
         cross_validate(V, F, np.arange(10), np.arange(10.0), max_distance=0.1)
+
+
+def test_overshoot_is_each_candidates_farthest_excursion_and_the_advice_names_a_bounded_one(sphere):
+    V, F, idx = sphere
+    vals = np.sin(2 * V[idx, 0]) + V[idx, 1] * V[idx, 2]
+    cv = cross_validate(V, F, idx, vals, methods=["triharmonic", ("biharmonic", {"bounds": "samples"}), "harmonic"],
+                        folds=4)
+    # the overshoot of one fold's fit, recomputed: how far it leaves its training samples' range, over the range
+    labels = cv.labels
+    far = 0.0
+    for f in range(cv.folds):
+        train = labels != f
+        r = reconstruct(V, F, idx[train], vals[train], method="triharmonic", on_empty="nan")
+        lo, hi = vals[train].min(), vals[train].max()
+        far = max(far, max(r.values.max() - hi, lo - r.values.min()) / (hi - lo))
+    assert cv.overshoot["triharmonic"] == pytest.approx(far, rel=1e-9) and far > 0.01
+    assert cv.overshoot["biharmonic bounds=samples"] <= 1e-9 and cv.overshoot["harmonic"] <= 1e-9
+    text = cv.recommendation
+    assert cv.best == "triharmonic" and "overshoots the samples' range" in text
+    assert "the best that stays within it is method='biharmonic', bounds='samples'" in text
+    assert "overshoot" in cv.table().splitlines()[1] and cv.summary()["overshoot"]["triharmonic"] == far
+    alone = cross_validate(V, F, idx, vals, methods=["triharmonic", "rbf"], folds=4)
+    assert "none of the candidates stayed within it" in alone.recommendation
+
+
+def test_auto_with_bounds_chooses_among_the_candidates_that_hold_them(sphere):
+    V, F, idx = sphere
+    vals = np.sin(2 * V[idx, 0]) + V[idx, 1] * V[idx, 2]
+    r = reconstruct(V, F, idx, vals, method="auto", bounds="samples")
+    assert all(not m.startswith("rbf") for m in r.report["auto"]["methods"])  # rbf takes no bounds: not a candidate
+    assert not r.report["auto"]["failures"]
+    assert vals.min() - 1e-9 <= r.values.min() and r.values.max() <= vals.max() + 1e-9
+
+
+def test_several_fields_say_what_each_loses_to_its_own_best(sphere):
+    V, F, idx = sphere
+    smooth = np.sin(2 * V[idx, 0]) + V[idx, 1] * V[idx, 2]
+    step = (V[idx, 0] + 0.5 * V[idx, 1] > 0.2).astype(float)
+    methods = ["triharmonic", ("biharmonic", {"bounds": "samples"}), "harmonic"]
+    cv = cross_validate(V, F, idx, np.column_stack([smooth, step]), methods=methods, folds=4)
+    alone = [cross_validate(V, F, idx, y, methods=methods, folds=4) for y in (smooth, step)]
+    for j, (own, loss) in enumerate(cv.per_field()):
+        assert own == alone[j].best  # a field's own best is what cross-validating it alone picks
+        assert loss == pytest.approx(alone[j].errors[cv.best] / alone[j].errors[own], rel=1e-9)
+    losers = [j for j, (own, r) in enumerate(cv.per_field()) if own != cv.best and r > 1.05]
+    assert losers and f"field {losers[0] + 1} would be" in cv.recommendation

@@ -124,6 +124,9 @@ def _summary(args, r, V, S):
         state = "holds" if c["holds"] else f"fails for {c['violations']} samples"
         print(f"step 1 ({name}): {c['levels']} levels, Lipschitz {c['lipschitz_hops']:.4g} per hop; "
               f"gradual variation {state}")
+    if "auto" in rep:  # method='auto': the cross-validation table and the choice, before the fill it chose
+        print(rep["auto"]["table"])
+        print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
     if rep.get("default"):
         print(f"method: the default ({rep['method']}, {rep.get('curve_values')} curve values, bounded by the samples' "
               f"range; --method {rep['method']} for the paper's pipeline alone)")
@@ -135,9 +138,6 @@ def _summary(args, r, V, S):
         _fill_line(args, rep)
     if rep.get("rbf"):
         print(f"rbf: thin-plate spline through the sample positions ({rep['rbf']['dims']}-D)")
-    if "auto" in rep:  # method='auto': the cross-validation table and the choice
-        print(rep["auto"]["table"])
-        print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
 
 
 def _fill_line(args, rep):

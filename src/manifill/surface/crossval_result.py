@@ -61,6 +61,8 @@ class CrossValidation:
     labels: np.ndarray = field(default=None, repr=False)
     #: Label -> what the method's win suggests (its ``cv_hint``: for rbf, a field that lives in space).
     hints: dict = field(default_factory=dict, repr=False)
+    #: Label -> the farthest any fold's fit left its training samples' range, as a fraction of that range.
+    overshoot: dict = field(default_factory=dict)
 
     def ranking(self):
         """The labels, best first: methods that ran on every fold by error, then the others."""
@@ -100,7 +102,8 @@ class CrossValidation:
         p = len(next(iter(self.field_errors.values())))
         lines = [f"{self.what} cross-validation of {self.samples:,} samples (seed {self.seed}); error: RMSE at "
                  f"the held-out samples / the samples' range" + ("" if p == 1 else f", {p} fields combined"),
-                 f"{'rank':>4}  {'method':<{width}}{'error':>9}  {'worst fold':>10}  {'seconds':>8}  note"]
+                 f"{'rank':>4}  {'method':<{width}}{'error':>9}  {'worst fold':>10}  {'overshoot':>9}  {'seconds':>8}  "
+                 f"note"]
         for r, m in enumerate(self.ranking(), 1):
             e, fe = self.errors[m], self.fold_errors[m]
             ok = not self.failures[m] and np.isfinite(e)
@@ -113,8 +116,10 @@ class CrossValidation:
                 fold, reason = next(iter(self.failures[m].items()))
                 notes.append(f"failed on {len(self.failures[m])}/{self.folds} folds (fold {fold}: {reason})")
             worst = _pct(np.nanmax(fe)) if np.isfinite(fe).any() else "-"
+            over = self.overshoot.get(m)
+            over = "-" if over is None else ("0" if over <= EXACT else _pct(over))
             lines.append(f"{r if ok else '-':>4}  {m:<{width}}{_pct(e) if np.isfinite(e) else '-':>9}  {worst:>10}  "
-                         f"{self.seconds[m]:>8.2f}  {'; '.join(notes)}".rstrip())
+                         f"{over:>9}  {self.seconds[m]:>8.2f}  {'; '.join(notes)}".rstrip())
         return "\n".join(lines)
 
     @property
@@ -141,7 +146,47 @@ class CrossValidation:
                 text += f", {en / e:.3g}x lower than the next, {nxt} ({_pct(en)})"
         if self.hints.get(best):
             text += f"; {self.hints[best]}"
-        return text + "."
+        return text + "." + self._bounded_advice(best, rest) + self._field_advice(best)
+
+    def per_field(self, label=None):
+        """Per field: ``(its own best candidate, the error of ``label`` (default: :attr:`best`) over that one's)``.
+
+        One method serves every field of a call; this says what each field loses by it (a ratio of 1: none).
+        """
+        label = self.best if label is None else label
+        ok = [m for m in self.methods if not self.failures[m] and np.isfinite(self.errors[m])]
+        out = []
+        for j in range(len(self.field_errors[label])):
+            own = min(ok, key=lambda m: (self.field_errors[m][j], self.methods.index(m)))
+            e, e0 = self.field_errors[label][j], self.field_errors[own][j]
+            out.append((own, float(e / e0) if e0 > 0 else (1.0 if e == 0 else np.inf)))
+        return out
+
+    def _field_advice(self, best):
+        """With several fields: the fields another candidate would serve better, and by how much."""
+        if len(self.field_errors[best]) < 2:
+            return ""
+        worse = [(j, own, r) for j, (own, r) in enumerate(self.per_field(best)) if own != best and r > 1.05]
+        if not worse:
+            return " It is the best for every field."
+        parts = [f"field {j + 1} would be {r:.3g}x better with {own}" for j, own, r in worse]
+        return (" One method serves all the fields of a call: " + "; ".join(parts) +
+                " (reconstruct those fields on their own to use it).")
+
+    def _bounded_advice(self, best, rest):
+        """When the recommended method leaves the samples' range: by how much, and the best one that does not."""
+        over = self.overshoot.get(best, 0.0)
+        if over <= EXACT:
+            return ""
+        text = f" It overshoots the samples' range by up to {_pct(over)} of it"
+        inside = [m for m in rest if self.overshoot.get(m, np.inf) <= EXACT]
+        if inside:
+            m = inside[0]
+            name, opts = self.candidates[m]
+            call = ", ".join([f"method={name!r}"] + [f"{k}={v!r}" for k, v in opts.items()])
+            ratio = self.errors[m] / self.errors[best] if self.errors[best] > 0 else np.inf
+            return text + f"; the best that stays within it is {call} ({_pct(self.errors[m])}, {ratio:.3g}x)."
+        return text + "; none of the candidates stayed within it: add bounds='samples' to a candidate to keep it."
 
     def summary(self):
         """A plain dict (for reports and JSON): ``methods``, ``errors``, ``chosen``, ``folds``, ``table``."""
@@ -149,6 +194,8 @@ class CrossValidation:
                 "chosen": self.best, "chosen_options": self.best_options, "folds": "loo" if self.loo else self.folds,
                 "what": self.what,
                 "seed": self.seed, "failures": {m: dict(f) for m, f in self.failures.items() if f},
+                "overshoot": {m: float(v) for m, v in self.overshoot.items()},
+                "per_field": [] if self.best is None else [{"best": own, "loss": r} for own, r in self.per_field()],
                 "table": self.table(), "recommendation": self.recommendation}
 
 

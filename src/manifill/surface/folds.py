@@ -103,16 +103,18 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
     span = vals.max(axis=0) - vals.min(axis=0)
     span = np.where(span > 0, span, 1.0)  # a constant field: absolute errors
     sw = options.fit.sample_weights
-    res = {key: {} for key in ("errors", "field_errors", "fold_errors", "seconds", "failures", "excluded")}
+    res = {key: {} for key in ("errors", "field_errors", "fold_errors", "seconds", "failures", "excluded",
+                               "overshoot")}
     for label, (name, own) in candidates.items():
         fit = options.replace(method=name, preset=None, on_empty="nan", seed=seed, **own)
         pred = np.full((k, p), np.nan)
-        failures, t0 = {}, time.perf_counter()
+        failures, t0, over = {}, time.perf_counter(), 0.0
         for f in range(nf):
             train = labels != f
             try:
                 o = fit if sw is None else fit.replace(sample_weights=sw[train])
-                pred[~train] = _fit(surface, idx, vals, train, o, reconstruct, positions)
+                pred[~train], fold_over = _fit(surface, idx, vals, train, o, reconstruct, positions)
+                over = max(over, fold_over)
             except (ManifillError, ArithmeticError, np.linalg.LinAlgError) as e:
                 failures[f] = _one_line(e)
         seconds = time.perf_counter() - t0
@@ -130,22 +132,33 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
         res["seconds"][label] = seconds
         res["failures"][label] = failures
         res["excluded"][label] = int(miss.sum())
+        res["overshoot"][label] = over
     hints = {} if lookup is None else {label: lookup(name).cv_hint for label, (name, _) in candidates.items()}
     return CrossValidation(methods=list(candidates), candidates=candidates, folds=nf, loo=folds == "loo",
                            seed=seed, samples=k, labels=labels, hints=hints, **res)
 
 
 def _fit(surface, idx, vals, train, options, reconstruct, positions):
-    """One fold's fit on the training samples, evaluated at the held-out ones."""
+    """One fold's fit on the training samples: ``(its values at the held-out ones, its overshoot)``.
+
+    The overshoot is the farthest the fit leaves its training samples' range, anywhere on the surface, as a
+    fraction of that range (the largest over the fields).
+    """
     test = ~train
     if positions is None:
         r = reconstruct(surface, idx[train], vals[train], options=options)
-        return r.values[idx[test]]
-    P, loc, duplicates, at_points = positions
-    ps = point_samples(surface.V, surface.F, P[train], vals[train], duplicates=duplicates,
-                       nearest_only=not at_points(options.method))
-    r = reconstruct(surface, ps.nearest, ps.nearest_vals, options=options, points=ps)
-    return np.einsum("tj,tjp->tp", loc.bary[test], r.values[loc.corners[test]])
+        at = r.values[idx[test]]
+    else:
+        P, loc, duplicates, at_points = positions
+        ps = point_samples(surface.V, surface.F, P[train], vals[train], duplicates=duplicates,
+                           nearest_only=not at_points(options.method))
+        r = reconstruct(surface, ps.nearest, ps.nearest_vals, options=options, points=ps)
+        at = np.einsum("tj,tjp->tp", loc.bary[test], r.values[loc.corners[test]])
+    lo, hi = vals[train].min(axis=0), vals[train].max(axis=0)
+    with np.errstate(invalid="ignore"):
+        out = np.maximum(np.fmax.reduce(r.values, axis=0) - hi, lo - np.fmin.reduce(r.values, axis=0))
+    span = np.where(hi > lo, hi - lo, 1.0)
+    return at, float(np.nanmax(np.maximum(out / span, 0.0), initial=0.0))
 
 
 def _one_line(exc):

@@ -2,10 +2,11 @@
 
 :data:`AUTO_CANDIDATES` (the paper's pipeline with Hermite and monotone curve values,
 harmonic, biharmonic, triharmonic, rbf; the bi- and triharmonic left out on a digital
-surface) are each fitted on :data:`AUTO_FOLDS` folds (leave-one-out below that many samples;
-the split seeded by ``seed``) by :func:`manifill.surface.folds.run_folds`; the
-lowest-error one then runs on all samples, so the result equals ``reconstruct(...,
-method=<chosen>, <its options>)``, and ``report['auto']`` holds the table.
+surface; with ``bounds`` only the candidates that hold them) are each fitted on
+:data:`AUTO_FOLDS` folds (leave-one-out below that many samples; the split seeded by ``seed``)
+by :func:`manifill.surface.folds.run_folds`; the lowest-error one then runs on all samples, so
+the result equals ``reconstruct(..., method=<chosen>, <its options>)``, and ``report['auto']``
+holds the table.
 """
 
 from ...errors import OptionError, SampleError, SolveError
@@ -51,8 +52,10 @@ class Auto(Method):
                               "or pass the samples at vertices")
         base = o.replace(check=None)
         with run.step("cross-validate", "cross_validate"):
+            # on a digital surface only those without a mass matrix; with bounds only those that hold them
             usable = [(name, own) for name, own in AUTO_CANDIDATES
-                      if not (surface.F is None and run.lookup(name).needs_triangles)]
+                      if not (surface.F is None and run.lookup(name).needs_triangles)
+                      and (o.fit.bounds is None or run.lookup(name).can_bound)]
             cands = {label_of(name, own): (name, own) for name, own in usable}
             cv = run_folds(surface, idx, vals, cands, folds=AUTO_FOLDS if k >= AUTO_FOLDS else "loo",
                            seed=o.fill.seed, options=base, reconstruct=run.reconstruct, lookup=run.lookup)

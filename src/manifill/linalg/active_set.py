@@ -4,9 +4,11 @@ The problem is
 
     minimise  q(x) = 1/2 x^T A x + c^T x   subject to  x[idx] = vals,  lo <= x <= hi  on the free indices,
 
-a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with ``g = A x + c`` (``+ Aeq^T mu``
-with equality rows): ``lo <= x <= hi``; ``g_i = 0`` where ``lo < x_i < hi``; ``g_i >= 0`` where ``x_i = lo``;
-``g_i <= 0`` where ``x_i = hi`` (``g_i``: the bound's multiplier; an index is inside or at its bound).
+a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with
+``g = A x + c`` (``+ Aeq^T mu`` with equality rows): ``lo <= x <= hi``;
+``g_i = 0`` where ``lo < x_i < hi``; ``g_i >= 0`` where ``x_i = lo``; ``g_i <= 0``
+where ``x_i = hi`` (``g_i`` is the multiplier of the bound, and complementarity
+holds since an index is either strictly inside or at its bound).
 
 The loop, one field at a time, keeps a *face* (free indices fixed at a bound)
 and solves for ``y``, the minimiser of ``q`` on it, from the unbounded
@@ -15,13 +17,11 @@ minimiser (the empty face). Two phases:
 1. *Primal-dual steps* (a semismooth Newton step of the box, as for obstacle
    problems): every index of the face whose multiplier has the wrong sign
    leaves it, and every free index whose violation is a *peak* (at least that
-   of each neighbour in ``A``'s graph) joins it, with its violated neighbours,
-   in one step. Fixing only around the peaks, not every violator, matters: the
-   bounded minimiser touches its bound on far fewer indices than the unbounded
-   one violates it (42 against 271 on a 10k sphere), and fixing them all, then
-   releasing a ring at a time, took libigl's loop (fix all, release all) 69
-   re-solves where this takes 12; the peaks' violated neighbours grow the face
-   a ring faster (the Earth image at 41k: 13 faces, not 35; docs/NOTES.md).
+   of each neighbour in ``A``'s graph) joins it, in one step. Fixing only the
+   peaks, not every violator, matters: the bounded minimiser touches its bound
+   on far fewer indices than the unbounded one violates it (42 against 271 on
+   a 10k sphere), and fixing them all, then releasing a ring at a time, took
+   libigl's loop (fix all, release all) 69 re-solves where this takes 12.
    The phase ends at the KKT point, or when a face comes back (it may cycle).
 2. *A monotone loop*, from there on, with a feasible point ``z`` on the face.
    If ``y`` violates a bound, ``z`` moves towards ``y``: to the projection
@@ -39,9 +39,11 @@ Both phases are finite (phase 1 stops at the first repeated face), so the
 loop always settles; ``maxiter`` caps the face solves all the same. Every face
 solve starts from the current point (``x0``, for ``amg``); each sets the
 backend up anew for its face (a factorisation for ``direct``, a hierarchy for
-``amg``). ``reuse=True`` runs CG on the face's ``A_FF`` preconditioned by the
-unbounded hierarchy restricted to the free set instead: the same answer, 1.4x
-slower on a 10k bilaplacian (300-650 CG steps per face), so it is off.
+``amg``). ``reuse=True`` instead runs conjugate gradients on the face's system
+``A_FF`` preconditioned by the unbounded hierarchy restricted to the free set
+(``R M^-1 R^T``, symmetric positive definite, no set-up): the same answer,
+but 1.4x slower on a 10k bilaplacian (14 faces: 6,848 CG steps, 300-650 per
+face; 40 s against 29 s with a new hierarchy per face), so it is off.
 
 With equality rows ``Aeq x = beq`` (points inside faces) the older loop runs
 (fix every violator, then release every wrong-signed multiplier, with the
@@ -330,8 +332,6 @@ def _bounded_field(faces, y, tol_x, tol_g, maxiter, field):
             return y, solves, U[active], side[active] > 0
         full[U] = viol  # a peak: violated at least as much as every neighbour in A's graph
         peak = (viol > 0) & (viol >= np.maximum.reduceat(full[A.indices], A.indptr[:-1])[U])
-        full[U] = peak  # ... and its violated neighbours: the face grows a ring faster, in fewer steps
-        peak |= (viol > 0) & (np.maximum.reduceat(full[A.indices], A.indptr[:-1])[U] > 0)
         trial = side.copy()
         trial[wrong] = 0
         trial[peak & (yu < lo)], trial[peak & (yu > hi)] = -1, 1

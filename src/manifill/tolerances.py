@@ -88,7 +88,7 @@ class Tolerances:
         The bounds' active set (:mod:`manifill.linalg.active_set`): a free value
         violates a bound by more than ``bound_rtol`` times the field's scale (the
         largest absolute sample value or finite bound), a multiplier has the wrong
-        sign by more than ``bound_rtol`` times ``max|A| * scale + max|c|``.
+        sign by more than ``bound_rtol`` times ``sum_j |A_ij| * scale + max|c|`` (its own row).
     affine_span : float
         The thin-plate RBF (:mod:`manifill.surface.rbf`) works in the affine span of the
         positions: directions whose singular value (of the centred, unit-scaled

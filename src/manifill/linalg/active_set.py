@@ -1,14 +1,10 @@
 """Bounds ``lo <= x <= hi`` for :class:`manifill.linalg.quadratic.QuadraticSolver`: a monotone active-set loop.
 
-The problem is
-
-    minimise  q(x) = 1/2 x^T A x + c^T x   subject to  x[idx] = vals,  lo <= x <= hi  on the free indices,
-
-a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with
-``g = A x + c`` (``+ Aeq^T mu`` with equality rows): ``lo <= x <= hi``;
-``g_i = 0`` where ``lo < x_i < hi``; ``g_i >= 0`` where ``x_i = lo``; ``g_i <= 0``
-where ``x_i = hi`` (``g_i`` is the multiplier of the bound, and complementarity
-holds since an index is either strictly inside or at its bound).
+The problem, ``minimise q(x) = 1/2 x^T A x + c^T x subject to x[idx] = vals, lo <= x <= hi`` on the free indices, is
+a convex box-constrained QP. Its minimiser satisfies the KKT conditions, with ``g = A x + c`` (``+ Aeq^T mu``
+with equality rows): ``lo <= x <= hi``; ``g_i = 0`` where ``lo < x_i < hi``; ``g_i >= 0`` where ``x_i = lo``;
+``g_i <= 0`` where ``x_i = hi`` (``g_i``: the bound's multiplier; an index is inside or at its bound), each to a
+tolerance scaled by its own row of ``A`` (scaled by ``max |A|``, small parts of a mesh stopped early).
 
 The loop, one field at a time, keeps a *face* (free indices fixed at a bound)
 and solves for ``y``, the minimiser of ``q`` on it, from the unbounded
@@ -190,7 +186,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     B = None if beq is None else np.asarray(beq, dtype=np.float64)
     B = None if B is None else np.broadcast_to(B[:, None] if B.ndim == 1 else B, (B.shape[0], p))
     mu = q.eq_multipliers
-    amax = float(np.abs(q.A.data).max()) if q.A.nnz else 0.0
+    rows = np.asarray(abs(sp.csr_array(q.A)).sum(axis=1)).ravel()  # sum |A_ij| of every row: its tolerance's scale
     report = {"lo": [None if np.isinf(v) else float(v) for v in lo],
               "hi": [None if np.isinf(v) else float(v) for v in hi],
               **{key: [0] * p for key in ("iterations", "setups", "cg_iterations", "active_lo", "active_hi")},
@@ -205,7 +201,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
             continue
         scale = scales[j]
         tol_x = TOL.bound_rtol * scale
-        tol_g = TOL.bound_rtol * (amax * scale + float(np.abs(C[:, j]).max()))
+        tol_g = TOL.bound_rtol * (rows * scale + float(np.abs(C[:, j]).max()))  # per index: its row's own size
         faces = _Faces(q, vals[:, j], lo[j], hi[j], C[:, j], reuse=reuse)
         if np.isinf(lo[j]) and np.isinf(hi[j]):
             x, m, its, active, at_hi = X[:, j], None, 0, np.zeros(0, np.int64), np.zeros(0, bool)
@@ -319,6 +315,7 @@ def _bounded_field(faces, y, tol_x, tol_g, maxiter, field):
     """The two phases of the module's docstring for one field: (x, face solves, active indices, at_hi)."""
     q, lo, hi, A = faces.q, faces.lo, faces.hi, faces.q.A
     U = q.unknown
+    tol_u = np.broadcast_to(tol_g, (q.n,))[U]  # a scalar, or one per index
     side = np.zeros(U.size, dtype=np.int8)  # -1 at lo, +1 at hi, 0 free
     seen, solves, full = {side.tobytes()}, 0, np.zeros(q.n)
     while True:  # primal-dual steps: release the wrong-signed, fix the peaks of the violation
@@ -326,7 +323,7 @@ def _bounded_field(faces, y, tol_x, tol_g, maxiter, field):
         free = side == 0
         viol = np.where(free & (yu < lo - tol_x), lo - yu, np.where(free & (yu > hi + tol_x), yu - hi, 0.0))
         g = _gradient(q, y, faces.c, None)[U]
-        wrong = (side != 0) & (np.where(side < 0, -g, g) > tol_g)
+        wrong = (side != 0) & (np.where(side < 0, -g, g) > tol_u)
         if not (wrong.any() or viol.any()):
             active = np.flatnonzero(side)
             return y, solves, U[active], side[active] > 0
@@ -348,6 +345,7 @@ def _monotone(faces, y, side, solves, tol_x, tol_g, maxiter, field):
     """The monotone loop from the face ``side`` and its minimiser ``y``: (x, solves, active indices, at_hi)."""
     q, lo, hi = faces.q, faces.lo, faces.hi
     U = q.unknown
+    tol_u = np.broadcast_to(tol_g, (q.n,))[U]  # a scalar, or one per index
     z = ez = None  # the feasible point on the face and its energy
     undo = None  # (side before a block release, the worst index) while that release is on trial
     seen = set()
@@ -364,7 +362,7 @@ def _monotone(faces, y, side, solves, tol_x, tol_g, maxiter, field):
             x[U] = xu
             g = _gradient(q, x, faces.c, None)[U]
             wrong = np.where(side < 0, -g, np.where(side > 0, g, 0.0))  # > 0: the multiplier's wrong sign
-            if not (wrong > tol_g).any():
+            if not (wrong > tol_u).any():
                 active = np.flatnonzero(side)
                 return x, solves, U[active], side[active] > 0
             key = side.tobytes()
@@ -375,8 +373,8 @@ def _monotone(faces, y, side, solves, tol_x, tol_g, maxiter, field):
             seen.add(key)
             z, ez = x, faces.energy(x)
             worst = int(np.argmax(wrong))
-            undo = (side.copy(), worst) if np.count_nonzero(wrong > tol_g) > 1 else None
-            side[wrong > tol_g] = 0  # release every wrong-signed index
+            undo = (side.copy(), worst) if np.count_nonzero(wrong > tol_u) > 1 else None
+            side[wrong > tol_u] = 0  # release every wrong-signed index
         elif z is None:  # the unbounded minimiser: clip it
             side[low], side[high] = -1, 1
             z = y.copy()
@@ -479,7 +477,8 @@ def _rows_loop(faces, x, beq, mu, tol_x, tol_g, maxiter, field):
             at_hi = np.concatenate([at_hi, np.zeros(below.size, bool), np.ones(above.size, bool)])
         else:  # release every multiplier of the wrong sign (>= 0 at lo, <= 0 at hi)
             g = _gradient(q, x, c, mu)[active]
-            keep = np.where(at_hi, g <= tol_g, g >= -tol_g)
+            tg = np.broadcast_to(tol_g, (q.n,))[active]
+            keep = np.where(at_hi, g <= tg, g >= -tg)
             if keep.all() and blocked:
                 raise SolveError(f"an equality row (a point inside a face) cannot be met within the bounds "
                                  f"(field {field}); widen the bounds or check the point's value")

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import ManifillError, OptionError, SampleError
 from .crossval_result import CrossValidation
+from .methods.base import overshoot_by_field
 from .points import point_samples
 
 __all__ = ["MIN_SAMPLES", "fold_labels", "label_of", "run_folds"]
@@ -154,11 +155,9 @@ def _fit(surface, idx, vals, train, options, reconstruct, positions):
                            nearest_only=not at_points(options.method))
         r = reconstruct(surface, ps.nearest, ps.nearest_vals, options=options, points=ps)
         at = np.einsum("tj,tjp->tp", loc.bary[test], r.values[loc.corners[test]])
-    lo, hi = vals[train].min(axis=0), vals[train].max(axis=0)
-    with np.errstate(invalid="ignore"):
-        out = np.maximum(np.fmax.reduce(r.values, axis=0) - hi, lo - np.fmin.reduce(r.values, axis=0))
-    span = np.where(hi > lo, hi - lo, 1.0)
-    return at, float(np.nanmax(np.maximum(out / span, 0.0), initial=0.0))
+    span = np.ptp(vals[train], axis=0)
+    out = overshoot_by_field(r.values, vals[train]) / np.where(span > 0, span, 1.0)
+    return at, float(np.nanmax(np.maximum(out, 0.0), initial=0.0))
 
 
 def _one_line(exc):

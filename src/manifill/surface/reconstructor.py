@@ -113,7 +113,7 @@ class Reconstructor:
             self.samples = self._raw.size
             if weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
                 weights = weights_by_vertex(self._raw, weights, np.unique(self._raw))
-        self.options = o.replace(sample_weights=weights) if weights is not None else o
+        self.options = o if weights is None else configure(o.replace(sample_weights=weights))  # checked once
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
         self.surface = Surface.from_mesh(V, F, distance=o.fill.distance, check=False)
@@ -123,11 +123,6 @@ class Reconstructor:
         self._prepared = Prepared()
         if prepare:
             self._prepare(progress)
-
-    @property
-    def bounds(self):
-        """The bounds the values are held in (None, ``'samples'`` or ``(lo, hi)``)."""
-        return self.options.fit.bounds
 
     def _linearity(self):
         """``(linear, why not)`` for this configuration (the module docstring's list)."""

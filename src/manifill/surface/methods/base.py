@@ -28,13 +28,12 @@ import numpy as np
 
 from ...errors import OptionError, SampleError
 from ...progress import tick
-from ..gp import energy_uncertainty, trust_mask
+from ..gp import trust_mask
 from ..gradual import check_gradual, violation_message
 from ..points import points_report
 from ..reconstruction import Reconstruction
-from ...linalg.gp import as_gp_options
 
-__all__ = ["Method", "Run", "CHECK_FIELDS"]
+__all__ = ["Method", "Run", "CHECK_FIELDS", "overshoot_by_field"]
 
 #: ``check=None`` runs Step 1 (the gradual variation report) for every field when there are at most this many
 #: fields, and skips it for more (each field costs a few shortest-path passes); ``check=True`` runs it always.
@@ -172,7 +171,7 @@ class Run:
         yield
         self.seconds[key or name] = time.perf_counter() - t
 
-    def check_runs(self, method):
+    def _check_runs(self, method):
         """Whether Step 1 runs: always where its levels are needed, else as ``check`` says (None: a few fields)."""
         o = self.options
         if method.needs_levels(o) or (o.fill.solver == "iterate" and o.fill.init == "gvf"):
@@ -182,11 +181,15 @@ class Run:
         return bool(o.step1.check)
 
     def step1(self, method, starts=None):
-        """Step 1 per field: levels, Lipschitz constant, gradual variation (``report['check']``)."""
+        """Step 1 per field: levels, Lipschitz constant, gradual variation (``report['check']``).
+
+        ``starts``, a callable, gives each field's lower bound of the Lipschitz constant (the partition's
+        steepest curve); it is called only when Step 1 runs.
+        """
         p = self.p
-        starts = [None] * p if starts is None else starts
         with self.step("check"):
-            if self.check_runs(method):
+            if self._check_runs(method):
+                starts = [None] * p if starts is None else starts()
                 self.checks = [check_gradual(self.surface, self.idx, self.vals[:, j],
                                              levels=self.options.step1.levels, distance="hops", start=starts[j])
                                for j in range(p)]
@@ -210,9 +213,7 @@ class Run:
         if o.uq.trust is not None:
             values, trusted, threshold = trust_mask(values, std, sample_vals, o.uq.trust, o.uq.untrusted)
             report["trust"] = {"threshold": threshold, "untrusted": int((~trusted).sum()), "marked": o.uq.untrusted}
-        lo, hi = sample_vals.min(axis=0), sample_vals.max(axis=0)
-        # per column first (reductions, no (n, p) temporaries); fmax/fmin skip NaN (untrusted vertices)
-        d = np.maximum(np.fmax.reduce(values, axis=0) - hi, lo - np.fmin.reduce(values, axis=0))
+        d = overshoot_by_field(values, sample_vals)
         report["overshoot"] = float(np.nanmax(d)) if np.isfinite(d).any() else 0.0
         if points is not None:
             report["points"] = points_report(points, method.exact_at(self))
@@ -222,12 +223,14 @@ class Run:
                               levels=[c.levels for c in self.checks], report=report, V=s.V, F=s.F, idx=self.idx,
                               points=None if points is None else points.located, std=std, trusted=trusted)
 
-    def energy_std(self, k, values):
-        """``(std, report)`` of an energy method's result (order ``k``) read as an intrinsic Gaussian field."""
-        o, points = self.options, self.points
-        w = o.fit.sample_weights
-        return energy_uncertainty(
-            self.surface, k, values, (self.idx, self.vals, points), weights=o.fill.weights,
-            fill_report=self.report.get("harmonic", {}), gp=as_gp_options(o.uq.gp),
-            sample_weights=w if w is None or points is None else points.weights(w),
-            solver="direct" if o.fill.solver == "iterate" else o.fill.solver)
+
+
+def overshoot_by_field(values, sample_vals):
+    """``(p,)``: how far each field's ``values`` leave its samples' range (<= 0 inside; NaN values skipped).
+
+    Per column first (reductions, no ``(n, p)`` temporaries); ``fmax``/``fmin`` skip NaN (untrusted vertices,
+    components without samples).
+    """
+    lo, hi = sample_vals.min(axis=0), sample_vals.max(axis=0)
+    with np.errstate(invalid="ignore"):
+        return np.maximum(np.fmax.reduce(values, axis=0) - hi, lo - np.fmin.reduce(values, axis=0))

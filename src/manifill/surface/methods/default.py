@@ -22,10 +22,6 @@ class Preset:
     options: dict
     summary: str = ""
 
-    def describe(self):
-        """One line: the method and its options (``gvf-harmonic, curve_values=monotone, bounds=samples``)."""
-        return ", ".join([self.method] + [f"{k}={v}" for k, v in self.options.items()])
-
 
 DEFAULT = Preset("default", "gvf-harmonic", {"curve_values": "monotone", "bounds": "samples"},
                  "the paper's pipeline with monotone curve values, bounded by the samples' range: fast, never "

@@ -12,7 +12,9 @@ and unless ``smoothing='auto'`` chooses lambda per field.
 
 from dataclasses import replace
 
+from ...linalg.gp import as_gp_options
 from ..energy_fill import energy_fill
+from ..gp import energy_uncertainty
 from .base import Method
 from .pipeline import harmonic_fill
 
@@ -58,7 +60,13 @@ class Energy(Method):
         return values, None
 
     def uncertainty(self, run, values):
-        return run.energy_std(self.k, values)
+        o, points = run.options, run.points
+        w = o.fit.sample_weights
+        return energy_uncertainty(
+            run.surface, self.k, values, (run.idx, run.vals, points), weights=o.fill.weights,
+            fill_report=run.report.get("harmonic", {}), gp=as_gp_options(o.uq.gp),
+            sample_weights=w if w is None or points is None else points.weights(w),
+            solver="direct" if o.fill.solver == "iterate" else o.fill.solver)
 
 
 HARMONIC = Energy("harmonic", 1, "harmonic with the samples alone fixed: the naive baseline, flat at the samples")

@@ -54,7 +54,7 @@ class Pipeline(Method):
         with run.step("partition"):
             part = cached(run.prepared, "partition", lambda: partition(surface, idx, method=o.fill.partition))
         # Step 1 after Steps 2-3: the hop length of every curve bounds its Lipschitz constant from below
-        run.step1(self, part.steepest(idx, vals) if run.check_runs(self) else None)
+        run.step1(self, lambda: part.steepest(idx, vals))
         run.report["partition"] = part.report
         run.curves, run.components, run.on_curve = part.curves, part.labels, part.on_curve.copy()
         with run.step("curve values", "curve_values"):

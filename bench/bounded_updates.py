@@ -19,7 +19,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-import manifill.linalg.active_set as active_set
+import manifill.linalg.faces as faces_mod
 from manifill.linalg.quadratic import QuadraticSolver
 from manifill.surface.energy_fill import _energy
 from manifill.surface.surface import Surface
@@ -30,20 +30,20 @@ from .fields_more import globe_case
 
 def record_faces(A, idx, vals):
     """The bounded answer of the library's loop, its time, and the faces (``side`` vectors) it solved."""
-    faces, solve = [], active_set._Faces.solve
+    faces, solve = [], faces_mod.Faces.solve
 
     def spy(self, side, x0, beq=None):
         faces.append(side.copy())
         return solve(self, side, x0, beq)
 
-    active_set._Faces.solve = spy
+    faces_mod.Faces.solve = spy
     try:
         q = QuadraticSolver(A, idx, solver="direct", symmetric_pattern=True)
         t = time.perf_counter()
         x = q.solve(vals, lo=vals.min(), hi=vals.max())
         return x, time.perf_counter() - t, faces
     finally:
-        active_set._Faces.solve = solve
+        faces_mod.Faces.solve = solve
 
 
 def replay(K, b, faces, lo, hi, weight=1e10):

@@ -334,7 +334,7 @@ def test_a_step_that_chased_its_tail_settles_at_the_kkt_point():
     q = QuadraticSolver(A, idx)
     x = q.solve(vals, lo=lo, hi=hi)
     rep = q.report["bounds"]
-    assert rep["iterations"][0] <= 12 and rep["setups"] == rep["iterations"]
+    assert rep["iterations"][0] <= 12
     assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo, hi, x)  # KKT: the minimiser of this convex QP
 
 
@@ -347,7 +347,7 @@ def test_the_monotone_loop_alone_settles_with_falling_energy(seed):
     A, idx, vals = sphere_step(3, 5, seed)
     lo, hi = vals.min(), vals.max()
     q = QuadraticSolver(A, idx)
-    faces = active_set._Faces(q, vals, lo, hi, np.zeros(A.shape[0]))
+    faces = active_set.Faces(q, vals, lo, hi, np.zeros(A.shape[0]))
     energies = []
     solve = faces.solve
 
@@ -384,3 +384,41 @@ def test_reusing_the_hierarchy_gives_the_fresh_setups_answer():
     assert_kkt(A, idx, vals, np.zeros(A.shape[0]), lo[0], hi[0], Xr[:, 0], rtol=1e-8)
     xd = QuadraticSolver(A, idx, solver="direct").solve(vals, lo=lo, hi=hi)
     np.testing.assert_allclose(Xr[:, 0], xd, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_face_on_the_base_factor_is_the_face_factorised(seed):
+    # the faces solved from one factor (and its Schur block) are each face's own minimiser: a walk of random faces
+    # (indices joining, leaving, changing sides) against a factorisation per face, and the same walk with cheap
+    # columns (every face on one factor) and with dear ones (every face factorised, then bases change)
+    from manifill.linalg.faces import Faces
+
+    rng = np.random.default_rng(seed)
+    A = biharmonic(*icosphere(2)) if seed % 2 else laplacian(*grid(12, 12)) + 1e-3 * sp.eye(144)
+    idx = rng.choice(A.shape[0], 6, replace=False)
+    vals, c = rng.normal(size=6), rng.normal(size=A.shape[0])
+    q = QuadraticSolver(A, idx, solver="direct")
+    c[idx] = 0.0
+    walks = {name: Faces(q, vals, -0.5, 0.5, c) for name in ("cheap", "dear", "unkept")}
+    walks["unkept"].keep_bytes = 0  # the Schur block alone, one solve per face
+    fresh = Faces(q, vals, -0.5, 0.5, c)
+    fresh.schur = False
+    side = np.zeros(q.unknown.size, np.int8)
+    for name, faces in walks.items():  # the empty face: the unbounded minimiser, and the base
+        np.testing.assert_allclose(faces.solve(side, None)[0], q.solve(vals, linear=c), atol=1e-12)
+        faces._column_seconds = np.inf if name == "dear" else 0.0
+    for step in range(12):
+        if step % 3 == 2:  # only indices at a bound move to the other bound
+            flip = rng.choice(np.flatnonzero(side), 2, replace=False)
+            side[flip] *= -1
+        else:
+            flip = rng.choice(side.size, 4, replace=False)
+            side[flip] = rng.choice([-1, 0, 1], size=4)
+        want, _ = fresh.solve(side, None)
+        for faces in walks.values():
+            got, _ = faces.solve(side, None)
+            np.testing.assert_allclose(got, want, atol=1e-9 * (1 + np.abs(want).max()))
+            W = q.unknown[side != 0]
+            assert np.array_equal(got[W], np.where(side[side != 0] > 0, 0.5, -0.5))
+    assert walks["cheap"].setups < walks["dear"].setups <= 12 == fresh.setups and walks["cheap"].columns > 0
+    assert walks["cheap"]._base["Z"] is not None and walks["unkept"]._base["Z"] is None

@@ -32,14 +32,13 @@ minimiser (the empty face). Two phases:
    rule; a face seen again, possible only by round-off, is an error).
 
 Both phases are finite (phase 1 stops at the first repeated face), so the
-loop always settles; ``maxiter`` caps the face solves all the same. Every face
-solve starts from the current point (``x0``, for ``amg``); each sets the
-backend up anew for its face (a factorisation for ``direct``, a hierarchy for
-``amg``). ``reuse=True`` instead runs conjugate gradients on the face's system
-``A_FF`` preconditioned by the unbounded hierarchy restricted to the free set
-(``R M^-1 R^T``, symmetric positive definite, no set-up): the same answer,
-but 1.4x slower on a 10k bilaplacian (14 faces: 6,848 CG steps, 300-650 per
-face; 40 s against 29 s with a new hierarchy per face), so it is off.
+loop always settles; ``maxiter`` caps the face solves all the same. The faces
+are solved by :class:`manifill.linalg.faces.Faces`: with a factorised backend
+from the unbounded factor and a Schur block of the indices at a bound (a face
+is factorised anew only when its new columns would cost more), otherwise by a
+new set-up per face (or, with ``reuse=True`` and ``amg``, by conjugate
+gradients preconditioned by the unbounded hierarchy restricted to the face:
+the same answer, but 1.4x slower on a 10k bilaplacian, so it is off).
 
 With equality rows ``Aeq x = beq`` (points inside faces) the older loop runs
 (fix every violator, then release every wrong-signed multiplier, with the
@@ -56,7 +55,7 @@ from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from ..errors import SampleError, SolveError
 from ..tolerances import TOL
-from .pcg import nrm2, pcg
+from .faces import Faces
 
 __all__ = ["MAX_ITERATIONS", "as_bounds", "solve_bounded", "check_samples"]
 
@@ -150,7 +149,9 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     report : dict
         ``lo``, ``hi`` (per field, None for unbounded), ``iterations`` (face
         solves), ``setups`` (backend set-ups among them), ``cg_iterations``
-        (conjugate-gradient steps of the reused hierarchy), ``active_lo``,
+        (conjugate-gradient steps of the reused hierarchy), ``columns``
+        (columns of the unbounded factor's inverse solved for, per field:
+        :mod:`manifill.linalg.faces`), ``active_lo``,
         ``active_hi`` (per field), ``kkt_residual`` (the largest ``|g_i|`` on
         an inactive free index or wrong-signed part of a multiplier, over all
         fields, in the units of ``A x``) and ``violation`` (the largest bound
@@ -189,7 +190,8 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     rows = np.asarray(abs(sp.csr_array(q.A)).sum(axis=1)).ravel()  # sum |A_ij| of every row: its tolerance's scale
     report = {"lo": [None if np.isinf(v) else float(v) for v in lo],
               "hi": [None if np.isinf(v) else float(v) for v in hi],
-              **{key: [0] * p for key in ("iterations", "setups", "cg_iterations", "active_lo", "active_hi")},
+              **{key: [0] * p for key in ("iterations", "setups", "cg_iterations", "columns", "active_lo",
+                                          "active_hi")},
               "kkt_residual": 0.0, "violation": 0.0}
     scales = np.array([max([float(np.abs(vals[:, j]).max()) if vals.size else 0.0,
                             *[abs(v) for v in (lo[j], hi[j]) if np.isfinite(v)]]) or 1.0 for j in range(p)])
@@ -202,7 +204,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
         scale = scales[j]
         tol_x = TOL.bound_rtol * scale
         tol_g = TOL.bound_rtol * (rows * scale + float(np.abs(C[:, j]).max()))  # per index: its row's own size
-        faces = _Faces(q, vals[:, j], lo[j], hi[j], C[:, j], reuse=reuse)
+        faces = Faces(q, vals[:, j], lo[j], hi[j], C[:, j], reuse=reuse)
         if np.isinf(lo[j]) and np.isinf(hi[j]):
             x, m, its, active, at_hi = X[:, j], None, 0, np.zeros(0, np.int64), np.zeros(0, bool)
         elif q.Aeq is None:
@@ -221,7 +223,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
                   float(np.max(-g[active[~at_hi]], initial=0.0)), float(np.max(g[active[at_hi]], initial=0.0)))
         report["kkt_residual"] = max(report["kkt_residual"], res)
         report["iterations"][j], report["setups"][j] = its, faces.setups
-        report["cg_iterations"][j] = faces.cg_iterations
+        report["cg_iterations"][j], report["columns"][j] = faces.cg_iterations, faces.columns
         report["active_lo"][j], report["active_hi"][j] = int(np.count_nonzero(~at_hi)), int(np.count_nonzero(at_hi))
         X[:, j] = x
     return X, report
@@ -242,73 +244,6 @@ def _settle(q, X, C, lo, hi, cols, report):
     X[np.ix_(U, cols)] = np.clip(XU, lo[cols], hi[cols])
     G = q.A @ np.nan_to_num(X[:, cols], nan=0.0) + C[:, cols]
     report["kkt_residual"] = max(report["kkt_residual"], float(np.abs(G[U]).max(initial=0.0)))
-
-
-class _Faces:
-    """The minimiser on a face (free indices ``side != 0`` fixed at ``lo`` (-1) or ``hi`` (+1)) of one field."""
-
-    def __init__(self, q, vals, lo, hi, c, reuse=True):
-        self.q, self.vals, self.lo, self.hi, self.c = q, vals, lo, hi, c
-        backend = q.backend
-        self.restricted = reuse and q.Aeq is None and backend.name == "amg" and hasattr(backend, "precondition")
-        self.setups = self.cg_iterations = 0
-        self.known = np.zeros(q.n)  # the fixed values, zero elsewhere (empty components too)
-        self.known[q.idx] = vals
-
-    def energy(self, x):
-        """``q(x)`` (NaN, on empty components, read as 0)."""
-        x = np.nan_to_num(x, nan=0.0)
-        return 0.5 * float(x @ (self.q.A @ x)) + float(self.c @ x)
-
-    def solve(self, side, x0, beq=None):
-        """The minimiser with ``q.unknown[side != 0]`` at their bounds (and the Aeq multipliers or None)."""
-        q = self.q
-        at = np.flatnonzero(side)
-        W = q.unknown[at]
-        bvals = np.where(side[at] > 0, self.hi, self.lo)
-        if self.restricted:
-            x = self._restricted(side == 0, W, bvals, x0)
-            if x is not None:
-                return x, None
-        sub = q.fixing(W)
-        self.setups += 1
-        x = sub.solve(np.concatenate([self.vals, bvals]), linear=self.c,
-                      x0=None if sub.report["solver"] == "direct" else np.nan_to_num(x0, nan=0.0), beq=beq)
-        return x, (None if sub.eq_multipliers is None else sub.eq_multipliers[:, 0])
-
-    def _restricted(self, free, W, bvals, x0):
-        """CG on ``A_FF`` preconditioned by ``q``'s hierarchy restricted to ``F``; None if it does not converge."""
-        q, backend = self.q, self.q.backend
-        F = q.unknown[free]
-        full = self.known.copy()
-        full[W] = bvals
-        b = -(q.A @ full)[F] - self.c[F]
-        wide, inner = np.zeros(q.n), np.zeros(q.unknown.size)
-
-        def matvec(v):
-            wide[F] = v
-            return (q.A @ wide)[F]
-
-        def precondition(r, _):
-            inner[free] = r
-            return backend.precondition(inner)[free]
-
-        xF = np.nan_to_num(x0[F], nan=0.0)
-        bnorm = nrm2(b)
-        r = b - matvec(xF)
-        s = nrm2(r)
-        if s > backend.rtol * bnorm:
-            r *= 1.0 / s
-            e = np.zeros_like(r)
-            res = pcg(matvec, r, e, precondition=precondition, rtol=backend.rtol * bnorm / s,
-                      maxiter=backend.maxiter, flexible=True)
-            self.cg_iterations += res.iterations
-            if not res.converged:
-                return None
-            xF = xF + s * e
-        full[F] = xF
-        full[q.empty] = np.nan
-        return full
 
 
 def _bounded_field(faces, y, tol_x, tol_g, maxiter, field):

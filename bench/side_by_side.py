@@ -27,6 +27,9 @@ CASES = {
     "harmonic, 163k": (7, 100, 1, "mf.reconstruct(V, F, idx, vals, method='harmonic')"),
     "biharmonic, 41k": (6, 100, 1, "mf.reconstruct(V, F, idx, vals, method='biharmonic')"),
     "biharmonic bounded, 41k": (6, 100, 1, "mf.reconstruct(V, F, idx, vals, method='biharmonic', bounds='samples')"),
+    "biharmonic bounded, 41k, 1,000 samples": (6, 1000, 1, "mf.reconstruct(V, F, idx, vals, method='biharmonic', "
+                                                          "bounds='samples')"),
+    "biharmonic bounded, 163k": (7, 100, 1, "mf.reconstruct(V, F, idx, vals, method='biharmonic', bounds='samples')"),
     "rbf, 41k": (6, 100, 1, "mf.reconstruct(V, F, idx, vals, method='rbf')"),
     "auto, 10k": (5, 100, 1, "mf.reconstruct(V, F, idx, vals, method='auto')"),
     "Reconstructor, 100 fields, 41k": (6, 100, 100, "mf.Reconstructor(V, F, idx).apply(vals)"),

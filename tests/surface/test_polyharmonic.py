@@ -253,3 +253,19 @@ def test_tet_mass_matrix(mesh):
     assert (M.diagonal() >= one - 1e-15).all()
     for s in (1e-100, 1e100):
         np.testing.assert_allclose(tet_mass_matrix(V * s, T).diagonal(), want * s**3, rtol=1e-12)
+
+
+def test_auto_factorises_the_biharmonic_wherever_pardisos_factor_fits(monkeypatch):
+    # with Pardiso, `auto` factorises a biharmonic system of any size whose predicted factor takes at most half the
+    # memory available (12.5 s against AMG's 74 s at 655k vertices); without it, AMG above AUTO_DIRECT_MAX unknowns
+    from manifill.surface import polyharmonic as ph
+
+    big = 655_000
+    monkeypatch.setattr(ph, "direct_factoriser", lambda: "pardiso")
+    monkeypatch.setattr(ph, "available_bytes", lambda: 2 * ph.lu_memory(big, ph.PolyharmonicSolver.BIHARMONIC_ROW * big))
+    assert ph.PolyharmonicSolver.settings(2, big)[0] == "direct"
+    assert ph.PolyharmonicSolver.settings(2, 2 * big)[0] == "amg"  # its factor would take more than half
+    monkeypatch.setattr(ph, "direct_factoriser", lambda: "superlu")
+    assert ph.PolyharmonicSolver.settings(2, big)[0] == "amg"
+    assert ph.PolyharmonicSolver.settings(2, ph.PolyharmonicSolver.AUTO_DIRECT_MAX)[0] == "direct"
+    assert ph.PolyharmonicSolver.settings(3, big)[0] == "direct"  # the triharmonic is always factorised

@@ -34,6 +34,7 @@ from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..mesh.laplacian import MASS, assemble_laplacian, mass_matrix
 from ..mesh.tetmesh import assemble_tet_laplacian, cell_width, tet_mass_matrix
 from ..errors import MeshError
+from ..memory import available_bytes, lu_memory
 from ..tolerances import TOL
 from ..validate import as_indices, as_mesh, as_tets, bbox_diagonal, check_option
 
@@ -175,10 +176,12 @@ class PolyharmonicSolver(QuadraticSolver):
 
     #: ``solver="auto"`` factorises a biharmonic system of at most this many unknowns, and every triharmonic one.
     AUTO_DIRECT_MAX = 5_000
-    #: The same bound when Pardiso factorises (:func:`manifill.linalg.backends.direct_factoriser`): measured
-    #: 3.6 s against 7.3 s for AMG at 41k vertices and 25 s against 102 s at 164k (biharmonic, 100 samples,
-    #: both runs on one loaded machine), so ``auto`` factorises up to here.
-    AUTO_DIRECT_MAX_PARDISO = 200_000
+    #: When Pardiso factorises (:func:`manifill.linalg.backends.direct_factoriser`), ``auto`` factorises every
+    #: system whose factor is predicted (:func:`manifill.memory.lu_memory`, about this many entries per row of
+    #: the biharmonic system) to take at most half the memory available: measured 3.6 s against 7.3 s for AMG at
+    #: 41k vertices, 25 s against 102 s at 164k (one loaded machine) and 12.5 s against 74 s at 655k (biharmonic,
+    #: 100 samples; the bounded one sets AMG up anew for every face of its active set, so it gains more).
+    BIHARMONIC_ROW = 19
     #: Default iteration cap of ``amg`` (a 4th-order operator needs hundreds of iterations on large meshes).
     MAXITER = 5000
 
@@ -208,7 +211,8 @@ class PolyharmonicSolver(QuadraticSolver):
         """The backend, tolerance and iteration cap for a k-harmonic system of ``free`` unknowns.
 
         ``auto`` is AMG-preconditioned CG for ``k = 2`` above :attr:`AUTO_DIRECT_MAX`
-        unknowns and a factorisation otherwise (measured: ``bench/biharmonic_speed.py``);
+        unknowns and a factorisation otherwise, or with Pardiso a factorisation wherever
+        its factor fits (:attr:`BIHARMONIC_ROW`; measured: ``bench/biharmonic_speed.py``);
         the tolerance defaults to ``TOL.polyharmonic_rtol``, the cap to :attr:`MAXITER`.
         Shared by every k-harmonic solve (:mod:`manifill.surface.energy_fill` too).
 
@@ -218,9 +222,12 @@ class PolyharmonicSolver(QuadraticSolver):
         tol : float
         maxiter : int
         """
-        if solver == "auto":
-            most = cls.AUTO_DIRECT_MAX_PARDISO if direct_factoriser() == "pardiso" else cls.AUTO_DIRECT_MAX
-            solver = "amg" if k == 2 and free > most else "direct"
+        if solver == "auto" and direct_factoriser() == "pardiso":
+            avail = available_bytes()
+            fits = avail is None or lu_memory(free, cls.BIHARMONIC_ROW * free) <= 0.5 * avail
+            solver = "direct" if k != 2 or free <= cls.AUTO_DIRECT_MAX or fits else "amg"
+        elif solver == "auto":
+            solver = "amg" if k == 2 and free > cls.AUTO_DIRECT_MAX else "direct"
         return (solver, TOL.polyharmonic_rtol if tol is None else tol,
                 cls.MAXITER if maxiter is None else maxiter)
 

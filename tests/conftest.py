@@ -309,3 +309,32 @@ def bars(monkeypatch):
 
     monkeypatch.setattr(manifill.progress, "StepBar", Recorder)
     return opened
+
+
+# ---------------------------------------------------------------------------
+# skips: each said in the run's summary (-rs) with the install that enables it
+# ---------------------------------------------------------------------------
+
+#: What a skipped test needs -> how to get it.
+INSTALLS = {
+    "pypardiso": "pip install -e '.[fast]'",
+    "igl": "pip install -e '.[volume]' (libigl)",
+    "tetgen": "pip install -e '.[volume]' (tetgen)",
+    "pyvista": "pip install -e '.[viz]'",
+    "h5py": "pip install -e '.[series]'",
+    "nibabel": "pip install -e '.[neuro]'",
+    "dask": "pip install -e '.[batch]'",
+    "potpourri3d": "pip install -e '.[bench]'",
+    "mne": "pip install -e '.[bench]' (mne)",
+}
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    if report.skipped and isinstance(report.longrepr, tuple) and len(report.longrepr) == 3:
+        path, line, reason = report.longrepr
+        hint = next((how for key, how in INSTALLS.items() if key in reason.lower()), None)
+        if hint and hint not in reason:
+            report.longrepr = (path, line, f"{reason} -> {hint}")

@@ -88,3 +88,36 @@ def test_regression_cli_bad_values_file_is_one_line(tmp_path, capsys):
     code, out, err = run(capsys, "harmonic", tmp_path / "m.ply", tmp_path / "c.npz", "-o", tmp_path / "o.vtu")
     assert "complex" in assert_usage_error(code, out, err)
     assert files(tmp_path) == ["c.npz", "m.ply"]
+
+
+def test_regression_structured_npy_with_a_sub_array_field_is_one_line(tmp_path, capsys):
+    # a field holding (2,) per row ended in "internal error: ValueError: all the input array dimensions ..."
+    V, F = icosphere(1)
+    arr = np.zeros(3, dtype=[("vertex", "i8"), ("value", "f8", (2,))])
+    arr["vertex"] = [0, 5, 9]
+    np.save(tmp_path / "s.npy", arr)
+    with pytest.raises(ReadError, match="field 'value' holds .* per row, not one number"):
+        read_samples(tmp_path / "s.npy", V)
+    np.save(tmp_path / "t.npy", np.zeros((3, 2), dtype=[("vertex", "i8"), ("value", "f8")]))
+    with pytest.raises(ReadError, match=r"shape \(3, 2\); save one row per sample"):
+        read_samples(tmp_path / "t.npy", V)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    line = assert_usage_error(*run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.npy", "-o",
+                                   tmp_path / "o.vtu"))
+    assert "per row, not one number" in line and not (tmp_path / "o.vtu").exists()
+
+
+@pytest.mark.parametrize("method", ["default", "biharmonic", "gp", "rbf", "harmonic"])
+def test_regression_huge_sample_values_are_refused_before_any_overflow(method):
+    # 1e308 printed four RuntimeWarnings, then "NaN or infinite values in rows 2, 6, 14" of an internal array
+    V, F = icosphere(2)
+    idx = np.arange(0, 162, 7)
+    vals = np.sin(V[idx, 0])
+    vals[3] = 1e308
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(SampleError, match=r"vals reaches 1e\+308 \(rows 3\), beyond 1e\+150"):
+            manifill.reconstruct(V, F, idx, vals, method=method)
+        vals[3], vals[4] = 1e149, -1e149  # the largest taken: a result, with no warning
+        r = manifill.reconstruct(V, F, idx, vals, method=method)
+    assert np.isfinite(r.values).all() and np.allclose(r.values[idx], vals, rtol=1e-9, atol=1e135)

@@ -80,3 +80,53 @@ def test_a_reconstruction_is_a_result_with_its_masks(columns):
         assert data[name].tobytes() == X[:, j].tobytes()
     # every patch label is -1 exactly on the curves
     assert ((r.components == -1) == r.on_curve).all()
+
+
+def test_the_repr_is_short_and_names_what_ran():
+    V, F = icosphere(3)
+    idx = np.arange(0, 600, 40)
+    X = np.random.default_rng(0).normal(size=(idx.size, 200))
+    r = reconstruct(V, F, idx, X, method="biharmonic")
+    text = repr(r)
+    assert len(text) < 800 and text.count("\n") <= 10  # not every array (57 KB before)
+    assert "biharmonic" in text and f"{len(V):,} vertices" in text and "200 fields" in text
+    assert "... and 194 more" in text
+    lo, hi = X[:, 0].min(), r.values[:, 0].max()
+    assert f"{r.values[:, 0].min():.4g}" in text and f"{hi:.4g}" in text and lo >= r.values[:, 0].min()
+    one = repr(reconstruct(V, F, idx, X[:, 0]))
+    assert "default (gvf-harmonic, monotone curves)" in one and "1 field\n" in one
+
+
+def test_names_are_an_attribute_and_name_every_output(tmp_path):
+    import meshio
+
+    V, F = icosphere(2)
+    idx = np.arange(0, 162, 20)
+    r = reconstruct(V, F, idx, np.column_stack([V[idx, 0], V[idx, 1]]), method="harmonic")
+    assert r.field_names == ["value", "value2"]
+    r.names = ["t", "p"]
+    assert list(r.point_data())[:2] == ["t", "p"] and r.field_names == ["t", "p"]
+    m = meshio.read(r.save(tmp_path / "o.vtu"))
+    np.testing.assert_array_equal(m.point_data["p"], r.values[:, 1])
+    assert m.point_data["sample_mask"].dtype == np.uint8  # masks as 0/1 bytes, as documented
+    assert "curve_mask" not in m.point_data  # no partition ran: no curves, no patches
+    table = np.genfromtxt(r.save(tmp_path / "o.csv"), delimiter=",", names=True)
+    assert table.dtype.names == ("vertex", "t", "p")  # as the CLI writes values
+    np.testing.assert_allclose(table["t"], r.values[:, 0])
+
+
+def test_at_interpolates_linearly_on_the_triangles_and_refuses_far_points():
+    V, F = icosphere(3)
+    idx = np.arange(0, 642, 7)
+    r = reconstruct(V, F, idx, np.column_stack([V[idx, 0], 2 * V[idx, 2]]), method="gp")
+    np.testing.assert_allclose(r.at(V[:20]), r.values[:20], atol=1e-12)  # at the vertices: their values
+    f = F[5]
+    w = np.array([0.2, 0.3, 0.5])
+    p = w @ V[f]
+    vals, std = r.at(p[None], return_std=True)
+    np.testing.assert_allclose(vals[0], w @ r.values[f], atol=1e-10)
+    np.testing.assert_allclose(std[0], w @ r.std[f], atol=1e-10)
+    with pytest.raises(SampleError):
+        r.at([[10.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="no std"):
+        reconstruct(V, F, idx, V[idx, 0]).at(V[:1], return_std=True)

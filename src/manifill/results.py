@@ -12,7 +12,10 @@ Steps 1-8). A result has
   (the same in every output file);
 - :meth:`Result.point_data`: the fields, named, and the masks: what is written;
 - :meth:`Result.to_pyvista`, :meth:`Result.to_meshio`: the domain as an object of
-  those libraries (each result says what it can give).
+  those libraries (each result says what it can give);
+- :attr:`Result.names` (the fields' names), :meth:`Result.save` (any format
+  :mod:`manifill.io` writes, which registers itself here: results sit below it)
+  and a short ``repr`` (what ran, the counts, each field's range, the time).
 
 The mask names live here, at the base of the package, so that results and the file
 formats of :mod:`manifill.io` use one naming scheme.
@@ -25,7 +28,7 @@ import numpy as np
 from .errors import SampleError
 
 __all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "TRUSTED", "RESERVED_NAMES", "Result",
-           "field_names", "with_std", "sample_mask"]
+           "field_names", "with_std", "sample_mask", "register_saver"]
 
 #: 1 where a vertex (or voxel) holds a sample
 SAMPLE_MASK = "sample_mask"
@@ -38,6 +41,16 @@ BOUNDARY_MASK = "boundary_mask"
 #: 1 where the standard deviation is within the ``trust`` threshold (with ``trust=``)
 TRUSTED = "trusted"
 RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK, TRUSTED)
+
+#: Fields named in a result's repr before "... and N more".
+REPR_FIELDS = 6
+
+_SAVER = []  # the writer of :meth:`Result.save`, registered by manifill.io (a layer above)
+
+
+def register_saver(save):
+    """Make ``save(result, path, names)`` the writer of :meth:`Result.save` (called by :mod:`manifill.io`)."""
+    _SAVER[:] = [save]
 
 
 def field_names(names, p):
@@ -140,6 +153,66 @@ class Result(ABC):
     #: Number of leading axes of ``values`` that index points (1 for vertices, 3 for voxels).
     point_ndim = 1
 
+    @property
+    def field_names(self):
+        """The fields' names: :attr:`names` when set (e.g. the columns of a samples file), else
+        ``value, value2, ...``. Files are written with these unless ``names=`` says otherwise."""
+        return field_names(getattr(self, "names", None), self.fields().shape[-1])
+
+    def __repr__(self):
+        """One short paragraph: what ran, on what, each field's range (and std's), the time."""
+        X = self.fields()
+        p = X.shape[-1]
+        names = self.field_names
+        std = getattr(self, "std", None)
+        S = None if std is None else (std if std.ndim == X.ndim else std[..., None])
+        report = self.report or {}
+        what = report.get("method")
+        if what and report.get("curve_values"):
+            what += f", {report['curve_values']} curves"
+        if what and report.get("preset"):
+            what = f"{report['preset']} ({what})"
+        head = f"<{type(self).__name__}: {what or 'reconstruction'} on {self._domain()}, {p} field{'s' * (p > 1)}"
+        lines = [head]
+        width = max(len(n) for n in names[:REPR_FIELDS])
+        for j, name in enumerate(names[:REPR_FIELDS]):
+            col = X[..., j]
+            finite = col[np.isfinite(col)]
+            rng = f"[{finite.min():.4g}, {finite.max():.4g}]" if finite.size else "all NaN"
+            nan = int(col.size - finite.size)
+            line = f"  {name:<{width}}  {rng}" + (f", {nan:,} NaN" if nan else "")
+            if S is not None:
+                sd = S[..., j][np.isfinite(S[..., j])]
+                line += f"  std [{sd.min():.3g}, {sd.max():.3g}]" if sd.size else ""
+            lines.append(line)
+        if p > REPR_FIELDS:
+            lines.append(f"  ... and {p - REPR_FIELDS} more")
+        seconds = report.get("seconds", {}).get("total") if isinstance(report.get("seconds"), dict) else None
+        if seconds is not None:
+            lines.append(f"  {seconds:.3g} s")
+        return "\n".join(lines) + ">"
+
+    def _domain(self):
+        """The domain in a few words, for the repr (e.g. ``40,962 vertices, 100 samples``)."""
+        return f"{int(np.prod(self.fields().shape[:-1])):,} points"
+
+    def save(self, path, names=None):
+        """Write the result to ``path``, in the format its extension names (any that ``manifill`` writes).
+
+        Parameters
+        ----------
+        path : str or path-like
+            E.g. ``out.vtp``, ``out.ply``, ``out.vtu`` (tets), ``out.vti`` (voxels), ``out.csv``.
+        names : list of str, optional
+            One name per field (default :attr:`field_names`).
+
+        Returns
+        -------
+        pathlib.Path
+            The file written (atomically: nothing is left half-written).
+        """
+        return _SAVER[0](self, path, self.field_names if names is None else names)
+
     def fields(self):
         """``values`` with a last axis per field, also for a single field.
 
@@ -179,7 +252,8 @@ class Result(ABC):
             ``names`` not one per field, or repeated.
         """
         X = self.fields()
-        data = dict(zip(field_names(names, X.shape[-1]), np.moveaxis(X, -1, 0)))
+        names = self.field_names if names is None else field_names(names, X.shape[-1])
+        data = dict(zip(names, np.moveaxis(X, -1, 0)))
         return {**data, **self.masks()}
 
     @abstractmethod

@@ -615,7 +615,7 @@ def mutation_sources(tmp_path):
     return sources
 
 
-def test_mutated_files_read_consistently_or_fail_in_one_line(tmp_path, capsys):
+def test_mutated_files_read_consistently_or_fail_in_one_line(tmp_path):
     sources = mutation_sources(tmp_path)
     for name, data in sources.items():  # every source is valid before it is mutated
         assert_consistent(*read_legacy(write(tmp_path, data, name)))
@@ -637,11 +637,9 @@ def test_mutated_files_read_consistently_or_fail_in_one_line(tmp_path, capsys):
                 assert_consistent(*result)
                 outcomes[op, "read"] += 1
             path.unlink()
-    with capsys.disabled():
-        total = sum(outcomes.values())
-        print(f"\n{total} mutants of {len(sources)} files: " + ", ".join(
-            f"{op} {outcomes[op, 'read']} read / {outcomes[op, 'ReadError']} refused"
-            for op in dict.fromkeys(op for op, _ in outcomes)))
-    assert total > 1000
+    total = sum(outcomes.values())
+    counts = ", ".join(f"{op} {outcomes[op, 'read']} read / {outcomes[op, 'ReadError']} refused"
+                       for op in dict.fromkeys(op for op, _ in outcomes))
+    assert total > 1000, f"{total} mutants of {len(sources)} files: {counts}"
     assert all(outcomes[op, "ReadError"] for op in ("truncate", "flip", "lie", "delete line"))
     assert outcomes["flip", "read"] and outcomes["truncate", "read"]

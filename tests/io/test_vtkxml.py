@@ -60,7 +60,7 @@ def typed_fields(n, seed=0):
 
 
 def written_dtype(arr):
-    if arr.dtype == bool:
+    if arr.dtype in (bool, np.uint8):  # masks stay bytes
         return np.uint8
     if np.issubdtype(arr.dtype, np.integer):
         lo, hi = int(arr.min()), int(arr.max())

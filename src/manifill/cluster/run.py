@@ -153,7 +153,7 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
             rows[job.id] = _row(job, "", status="failed", error=_one_line(exc))
             continue
         old = previous.get(job.id)
-        if old and old.get("status") == "done" and old.get("hash") == digest and _outputs_exist(job):
+        if old and old.get("status") in ("done", "skipped") and old.get("hash") == digest and _outputs_exist(job):
             rows[job.id] = dict(old, status="skipped")
         else:
             todo.append((job, digest))

@@ -308,7 +308,7 @@ def _field_array(name, arr, n):
         raise WriteError(f"field {name!r} has shape {arr.shape}; pass (n,) or (n, p) per-vertex values")
     if arr.shape[0] != n:
         raise WriteError(f"field {name!r} has {arr.shape[0]} values for {n} vertices; pass one per vertex")
-    if arr.dtype == bool:
+    if arr.dtype in (bool, np.uint8):  # masks: 0/1 bytes
         return arr.astype(np.uint8)
     if np.issubdtype(arr.dtype, np.integer):
         i32 = np.iinfo(np.int32)

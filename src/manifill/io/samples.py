@@ -356,6 +356,12 @@ def _read_structured_npy(path):
         )
     header = list(arr.dtype.names)
     kind, ncoord = _split_header(header, path)
+    if arr.ndim != 1:
+        raise ReadError(f"{path.name}: a structured array of shape {arr.shape}; save one row per sample, shape (k,)")
+    nested = [h for h in header if arr.dtype[h].shape or arr.dtype[h].names]
+    if nested:
+        raise ReadError(f"{path.name}: field {nested[0]!r} holds {arr.dtype[nested[0]]} per row, not one number; "
+                        f"save one field per column (e.g. x, y, z apart)")
     table = np.column_stack([_numeric(arr[h], f"field {h!r}", path).ravel() for h in header])
     if len(table) == 0:
         raise ReadError(f"{path.name}: no samples (an empty array); pass at least one")

@@ -113,7 +113,7 @@ def _field(fname, key, arr, n):
     if arr.ndim not in (1, 2) or len(arr) != n or (arr.ndim == 2 and arr.shape[1] < 1):
         raise WriteError(f"{fname}: field {key!r} has shape {arr.shape}, not ({n},) or ({n}, p) for {n:,} points; "
                          f"pass one value (or row) per point")
-    if arr.dtype == bool:
+    if arr.dtype in (bool, np.uint8):  # masks: 0/1 bytes
         return key, "unsigned_char", arr.astype("u1")
     if arr.dtype.kind in "iu":
         info = np.iinfo(np.int32)

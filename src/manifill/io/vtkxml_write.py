@@ -42,8 +42,9 @@ def _check_name(name):
 
 
 def _vtk_array(arr):
-    """``arr`` in the type it is written as: bool -> UInt8, integers -> Int32 (or 64), floats -> Float64."""
-    if arr.dtype == bool:
+    """``arr`` in the type it is written as: bool and uint8 (masks) -> UInt8, integers -> Int32 (or 64), floats ->
+    Float64."""
+    if arr.dtype in (bool, np.uint8):
         return arr.astype(np.uint8)
     if np.issubdtype(arr.dtype, np.integer):
         if arr.size == 0:

@@ -17,7 +17,7 @@ from .tets import boundary_vertices
 __all__ = ["VolumeReconstruction"]
 
 
-@dataclass
+@dataclass(repr=False)
 class VolumeReconstruction(Result):
     """The result of the ``reconstruct_volume`` functions (a :class:`manifill.results.Result`).
 
@@ -74,6 +74,12 @@ class VolumeReconstruction(Result):
     samples: np.ndarray = None
     std: np.ndarray = None
     trusted: np.ndarray = None
+    names: list = None
+
+    def _domain(self):
+        if self.form == "voxels":
+            return f"{int(np.count_nonzero(self.mask)):,} voxels of a {'x'.join(map(str, self.mask.shape))} grid"
+        return f"{len(self.TV):,} vertices, {len(self.TT):,} tetrahedra"
 
     @property
     def point_ndim(self):
@@ -102,7 +108,7 @@ class VolumeReconstruction(Result):
 
     def point_data(self, names=None):
         """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
-        return with_std(super().point_data(names), self.std, names, self.point_ndim)
+        return with_std(super().point_data(names), self.std, self.field_names if names is None else names, self.point_ndim)
 
     def to_pyvista(self, names=None):
         """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).

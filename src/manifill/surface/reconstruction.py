@@ -4,14 +4,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import OptionError
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, with_std
 from ..mesh.objects import to_meshio
 from ..mesh.objects import to_pyvista
+from .locate import locate_points
 
 __all__ = ["Reconstruction"]
 
 
-@dataclass
+@dataclass(repr=False)
 class Reconstruction(Result):
     """The result of :func:`reconstruct` and :func:`reconstruct_surface` (a :class:`manifill.results.Result`).
 
@@ -62,6 +64,56 @@ class Reconstruction(Result):
     points: object = None
     std: np.ndarray = None
     trusted: np.ndarray = None
+    names: list = None
+
+    def _domain(self):
+        kind = "vertices" if self.F is not None else "surface voxels"
+        return f"{len(self.values):,} {kind}, {0 if self.idx is None else len(self.idx):,} samples"
+
+    def at(self, points, *, return_std=False, max_distance=None):
+        """The fields at points on (or near) the surface, linear on each triangle.
+
+        Parameters
+        ----------
+        points : (m, 3) array_like of float
+            Positions; each is located at its closest point of the surface
+            (:func:`manifill.surface.locate.locate_points`); points farther than the
+            samples' limit are refused, as samples would be.
+        return_std : bool, optional
+            Also return the std there (results with a std: ``method='gp'`` or
+            ``uncertainty=True``): the same barycentric weights applied to the vertices'
+            std, an upper bound of the std of the interpolated value.
+        max_distance : float, optional
+            As for samples at positions.
+
+        Returns
+        -------
+        values : (m,) or (m, p) numpy array
+        std : (m,) or (m, p) numpy array
+            With ``return_std=True``.
+
+        Examples
+        --------
+        >>> from manifill.mesh.shapes import icosphere
+        >>> from manifill.surface.reconstruct import reconstruct
+        >>> V, F = icosphere(2)
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> bool(abs(r.at(V[[10]] * 1.001)[0] - 2.0) < 1e-9)
+        True
+        """
+        if self.F is None:
+            raise OptionError("at() interpolates on triangles; a digital surface has none: index r.values by vertex")
+        if return_std and self.std is None:
+            raise OptionError("this result has no std; reconstruct with method='gp' or uncertainty=True")
+        loc = locate_points(self.V, self.F, points, max_distance=max_distance)
+        out = [np.einsum("mc,mc...->m...", loc.bary, a[loc.corners])
+               for a in ((self.values, self.std) if return_std else (self.values,))]
+        return tuple(out) if return_std else out[0]
+
+    def plot(self, field=None, **kwargs):
+        """Draw the result with pyvista (the ``[viz]`` extra): ``self.to_pyvista().plot(scalars=field)``."""
+        mesh = self.to_pyvista()
+        return mesh.plot(scalars=self.field_names[0] if field is None else field, **kwargs)
 
     @property
     def sample_mask(self):
@@ -71,7 +123,8 @@ class Reconstruction(Result):
         return sample
 
     def masks(self):
-        """``sample_mask``, ``curve_mask`` (:attr:`on_curve`) and ``patch_label`` (:attr:`components`).
+        """``sample_mask``; with a partition (the pipeline's methods) ``curve_mask`` (:attr:`on_curve`) and
+        ``patch_label`` (:attr:`components`); ``trusted`` with ``trust=``.
 
         Examples
         --------
@@ -81,8 +134,12 @@ class Reconstruction(Result):
         >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
         >>> list(r.masks()), int(r.masks()["sample_mask"].sum())
         (['sample_mask', 'curve_mask', 'patch_label'], 5)
+        >>> list(reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0], method="biharmonic").masks())
+        ['sample_mask']
         """
-        out = {SAMPLE_MASK: self.sample_mask, CURVE_MASK: self.on_curve, PATCH_LABEL: self.components}
+        out = {SAMPLE_MASK: self.sample_mask}
+        if len(self.curves):  # curves and patches mean something only where a partition ran
+            out.update({CURVE_MASK: self.on_curve, PATCH_LABEL: self.components})
         if self.trusted is not None:
             out[TRUSTED] = self.trusted
         return out
@@ -101,7 +158,7 @@ class Reconstruction(Result):
             The fields, their standard deviations (``<name>_std``, when computed),
             ``sample_mask``, ``curve_mask``, ``patch_label`` (and ``trusted``).
         """
-        return with_std(super().point_data(names), self.std, names)
+        return with_std(super().point_data(names), self.std, self.field_names if names is None else names)
 
     def to_pyvista(self, names=None):
         """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).

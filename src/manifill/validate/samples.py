@@ -75,6 +75,10 @@ def as_indices(idx, n, *, what="idx", unique=True):
     return idx
 
 
+#: The largest sample value (in magnitude) taken: an energy ``x^T A x`` of values beyond it overflows float64.
+MAX_VALUE = 1e150
+
+
 def as_values(vals, k, *, what="vals"):
     """Validate the values at ``k`` vertices: ``(k,)`` or ``(k, p)`` finite floats.
 
@@ -125,6 +129,11 @@ def as_values(vals, k, *, what="vals"):
     if bad.any():
         rows = first_entries(np.flatnonzero(bad))
         raise SampleError(f"{what} has NaN or infinite values in rows {rows}; remove those samples")
+    big = np.abs(vals).max(initial=0.0)
+    if big > MAX_VALUE:
+        rows = first_entries(np.flatnonzero((np.abs(vals) > MAX_VALUE).any(axis=1)))
+        raise SampleError(f"{what} reaches {big:.3g} (rows {rows}), beyond {MAX_VALUE:.0e}, where the energies' "
+                          f"squares overflow; divide the values by a power of ten and scale the result back")
     return np.ascontiguousarray(vals), squeeze
 
 

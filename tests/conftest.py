@@ -329,12 +329,21 @@ INSTALLS = {
 }
 
 
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_makereport(item, call):
-    outcome = yield
-    report = outcome.get_result()
+def _with_install(report):
     if report.skipped and isinstance(report.longrepr, tuple) and len(report.longrepr) == 3:
         path, line, reason = report.longrepr
         hint = next((how for key, how in INSTALLS.items() if key in reason.lower()), None)
         if hint and hint not in reason:
             report.longrepr = (path, line, f"{reason} -> {hint}")
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    _with_install(outcome.get_result())
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_make_collect_report(collector):  # a module skipped as a whole (importorskip at its top)
+    outcome = yield
+    _with_install(outcome.get_result())

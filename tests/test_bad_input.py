@@ -121,3 +121,54 @@ def test_regression_huge_sample_values_are_refused_before_any_overflow(method):
         vals[3], vals[4] = 1e149, -1e149  # the largest taken: a result, with no warning
         r = manifill.reconstruct(V, F, idx, vals, method=method)
     assert np.isfinite(r.values).all() and np.allclose(r.values[idx], vals, rtol=1e-9, atol=1e135)
+
+
+def test_regression_mesh_and_samples_swapped_get_a_hint(tmp_path, capsys):
+    # was "s.csv: cannot read '.csv' files; use one of ..."
+    V, F = icosphere(1)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    (tmp_path / "s.csv").write_text("vertex,value\n0,1.0\n5,2.0\n")
+    for command in (["reconstruct"], ["harmonic"]):
+        line = assert_usage_error(*run(capsys, *command, tmp_path / "s.csv", tmp_path / "m.vtu", "-o",
+                                       tmp_path / "o.vtu"))
+        assert "did you swap them? the order is MESH SAMPLES" in line
+    assert not (tmp_path / "o.vtu").exists()
+
+
+def test_regression_a_killed_runs_temporary_is_removed_by_the_next_write(tmp_path):
+    # a SIGKILLed run left `.out.vtu.<pid>.tmp.vtu` for ever; a live writer's temporary stays
+    import subprocess
+    import sys
+
+    V, F = icosphere(1)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    stale = tmp_path / f".out.vtu.{int(dead.stdout)}.tmp.vtu"
+    stale.write_bytes(b"half")
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        busy = tmp_path / f".out.vtu.{live.pid}.tmp.vtu"
+        busy.write_bytes(b"being written")
+        write_mesh(tmp_path / "out.vtu", V, F)
+        assert not stale.exists() and busy.exists() and (tmp_path / "out.vtu").exists()
+    finally:
+        live.kill()
+        live.wait()
+
+
+def test_regression_extreme_levels_and_spacing_end_in_one_line_without_warnings(tmp_path, capsys):
+    # --levels=-1e308,1e308 succeeded with overflow warnings; --spacing 1e-300 printed numpy's overflow warning first
+    V, F = icosphere(2)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    idx = np.arange(0, 162, 9)
+    np.savetxt(tmp_path / "s.csv", np.column_stack([idx, np.sin(V[idx, 0])]), delimiter=",", header="vertex,value",
+               comments="")
+    np.save(tmp_path / "mask.npy", np.ones((5, 5, 5), bool))
+    (tmp_path / "v.csv").write_text("x,y,z,value\n0,0,0,1.0\n4e-300,4e-300,4e-300,2.0\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        line = assert_usage_error(*run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.csv", "-o",
+                                       tmp_path / "o.vtu", "--levels=-1e308,1e308"))
+        assert "levels reach 1e+308, beyond 1e+150" in line and not (tmp_path / "o.vtu").exists()
+        code, out, err = run(capsys, "volume", tmp_path / "mask.npy", tmp_path / "v.csv", "-o", tmp_path / "o.vti",
+                             "--spacing", "1e-300")
+        assert code == 0 and err == "" and (tmp_path / "o.vti").exists(), err

@@ -126,3 +126,27 @@ def test_series_errors_are_one_line(tmp_path, capsys, case):
         code, text, err = run(capsys, "reconstruct", mesh, *argv)
         assert_usage_error(code, text, err)
     assert not list(tmp_path.glob("o.*"))
+
+
+def test_the_run_says_where_its_times_came_from_and_how_far_it_snapped(tmp_path, capsys, case):
+    # numeric column names of a wide CSV became times silently; a series never reported its snapping distance
+    mesh, npz = case
+    code, text, err = run(capsys, "reconstruct", mesh, npz, "-o", tmp_path / "a.npy", "--method", "harmonic")
+    assert code == 0, err
+    assert "times from the file's 'times'" in text
+    wide = tmp_path / "wide.csv"
+    P = V[IDX] * 1.001  # positions just off the vertices
+    header = "x,y,z," + ",".join(f"{t:g}" for t in TIMES)
+    np.savetxt(wide, np.column_stack([P, VALS]), delimiter=",", header=header, comments="")
+    code, text, err = run(capsys, "reconstruct", mesh, wide, "-o", tmp_path / "b.h5", "--method", "harmonic")
+    assert code == 0, err
+    assert "times from the value columns' names" in text
+    assert "positions kept where they are (located on the surface); largest distance to a vertex" in text
+    code, text, err = run(capsys, "reconstruct", mesh, wide, "-o", tmp_path / "b2.h5")  # the pipeline snaps
+    assert code == 0, err
+    assert "snapped positions to vertices: largest distance" in text
+    (tmp_path / "named.csv").write_text("vertex,a,b\n" + "".join(f"{i},{i},{2 * i}\n" for i in IDX))
+    code, text, err = run(capsys, "reconstruct", mesh, tmp_path / "named.csv", "-o", tmp_path / "c.h5",
+                          "--method", "harmonic")
+    assert code == 0, err
+    assert "times from the step numbers" in text

@@ -198,3 +198,16 @@ def test_the_command_line_runs_a_manifest_on_a_given_scheduler(tmp_path, capsys,
     assert summary.exists() and (out / "x.vtu").exists()
     code, _, err = run(capsys, "batch", manifest, "--scheduler", client.scheduler.address, "--workers", "2")
     assert code == 2 and err.count("\n") == 1 and "leave them out" in err
+
+
+def test_a_manifest_writing_to_a_new_folder_works_as_written(tmp_path, inputs, client):
+    # the README's example writes to out/: every job failed ("folder ... does not exist") until it was made by hand
+    out = tmp_path / "out" / "deeper"
+    js = jobs(inputs, out)[:2]
+    blocked = tmp_path / "file"
+    blocked.write_text("a file where a folder should be")
+    js.append(dict(js[0], id="blocked", output=blocked / "x.vtu"))
+    result = manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv")
+    status = {r["id"]: r for r in result.rows}
+    assert status["a"]["status"] == status["b"]["status"] == "done" and (out / "a.vtu").exists()
+    assert status["blocked"]["status"] == "failed" and "could not make the folder of x.vtu" in status["blocked"]["error"]

@@ -1,5 +1,6 @@
 """Seeing the result: Loop subdivision, off-screen renders, the HTML viewer (in headless Chromium), CLI flags."""
 
+import re
 import shutil
 import subprocess
 
@@ -429,3 +430,23 @@ def test_viewer_recolours_with_the_field_range_in_headless_chromium(tmp_path):
     a, b = png(tmp_path / "both.png")[100:], png(tmp_path / "alone.png")[100:]  # below the panel (its list differs)
     assert a.shape == (380, 640, 3) and a[40:240, 220:420].std() > 15  # the sphere is drawn and coloured
     assert np.abs(a - b).max() <= 2
+
+
+@pytest.mark.skipif(chromium() is None, reason=NEEDS_CHROMIUM)
+def test_viewer_shows_controls_only_for_what_the_result_has(tmp_path):
+    # a "curves" box showed for methods that draw no curves
+    V, F = icosphere(3)
+    idx = np.arange(0, len(V), 37)
+    shown = {}
+    for method in ("default", "biharmonic"):
+        r = reconstruct(V, F, idx, V[idx, 0], method=method)
+        page = tmp_path / f"{method}.html"
+        write_html(page, V, F, r.values, samples=idx, curves=r.curves)
+        cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
+               "--enable-unsafe-swiftshader", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}",
+               "--dump-dom", page.as_uri()]
+        dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False).stdout
+        box = re.search(r'<label id="curvesBox"[^>]*>', dom).group()
+        shown[method] = "display: none" not in box
+        assert "display: none" not in re.search(r'<label id="samplesBox"[^>]*>', dom).group()
+    assert shown == {"default": True, "biharmonic": False}

@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import OptionError, SampleError, WriteError
-from ..io import MESH_FORMATS, VALUE_FORMATS, check_field_names, format_note, read_mesh_file, read_samples, write_mesh
+from ..io import MESH_FORMATS, SAMPLE_FORMATS, VALUE_FORMATS, check_field_names, format_note, read_mesh_file, read_samples, write_mesh
 from ..mesh.clean import clean_mesh
 from .. import progress
 from ..report import uncertainty_lines, value_ranges
@@ -25,9 +25,17 @@ from ..viz.render import render_fields
 from ..viz.viewer import write_html
 from ..surface.methods.registry import METHODS, method_of
 
-__all__ = ["load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
+__all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
            "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
            "wants_std", "uncertainty_opts", "std_names", "print_uncertainty"]
+
+
+def check_order(mesh, samples):
+    """Refuse MESH and SAMPLES given the wrong way round (a samples file first, a mesh second), in one line."""
+    m, s = Path(str(mesh)).suffix.lower(), Path(str(samples)).suffix.lower()
+    if m in SAMPLE_FORMATS and m not in MESH_FORMATS and s in MESH_FORMATS and s not in SAMPLE_FORMATS:
+        raise OptionError(f"MESH is {Path(str(mesh)).name}, a samples file, and SAMPLES is {Path(str(samples)).name}, "
+                          f"a mesh: did you swap them? the order is MESH SAMPLES")
 
 
 def load(args, keep_points=False):
@@ -42,6 +50,7 @@ def load(args, keep_points=False):
     S : manifill.surface.samples.Samples
     """
 
+    check_order(args.mesh, args.samples)
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
     # vertex indices refer to the file's numbering, so samples are read against it

@@ -20,7 +20,7 @@ from ..io.distributed import dask_client
 from ..io.series import TIME_COLUMNS, read_series
 from ..io.stream import chunk_size, reconstruct_series
 from ..progress import StepBar
-from .common import print_time
+from .common import check_order, print_time
 from .options import check_workers
 
 __all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
@@ -57,6 +57,7 @@ def run_series(args, out, options, exact):
         if getattr(args, flag, None):
             raise OptionError(f"--{flag} is not available for a time series; leave it out (open the series in "
                               f"ParaView instead)")
+    check_order(args.mesh, args.samples)
     mesh = read_mesh_file(args.mesh)
     V, F = mesh.V, mesh.F
     series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
@@ -67,7 +68,13 @@ def run_series(args, out, options, exact):
     step = chunk_size(len(V), T, args.chunk)
     chunks = -(-T // step)
     print(f"{len(V):,} vertices, {len(where['vals']):,} samples, {T:,} time steps of {series.names[0]!r} "
-          f"({series.times[0]:g} .. {series.times[-1]:g}), in {chunks} chunk(s) of {step}")
+          f"({series.times[0]:g} .. {series.times[-1]:g}, times from {series.times_from}), in {chunks} chunk(s) "
+          f"of {step}")
+    if S.snap_distance is not None and S.points is None:
+        print(f"snapped positions to vertices: largest distance {S.snap_distance.max():.3g}")
+    elif S.snap_distance is not None:
+        print(f"positions kept where they are (located on the surface); largest distance to a vertex "
+              f"{S.snap_distance.max():.3g}")
     bar = StepBar(chunks, enabled=not args.quiet, desc="manifill reconstruct (time steps)")
     try:
         with dask_client(args.scheduler, check_workers(args), local=False,

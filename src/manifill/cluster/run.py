@@ -155,8 +155,15 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
         old = previous.get(job.id)
         if old and old.get("status") in ("done", "skipped") and old.get("hash") == digest and _outputs_exist(job):
             rows[job.id] = dict(old, status="skipped")
-        else:
-            todo.append((job, digest))
+            continue
+        try:  # the outputs' folders, made here (a manifest that writes to out/ works as written)
+            for out in job.outputs():
+                Path(out).parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            rows[job.id] = _row(job, digest, status="failed",
+                                error=f"could not make the folder of {Path(out).name} ({exc.strerror or exc})")
+            continue
+        todo.append((job, digest))
     finished, written = 0, -1.0
 
     def record(job, row):

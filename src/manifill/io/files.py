@@ -12,6 +12,8 @@ the bytes the file has before anything is allocated.
 import io
 import logging
 import os
+import re
+import shutil
 import signal
 import traceback
 import warnings
@@ -20,7 +22,7 @@ from pathlib import Path
 
 from ..errors import ManifillError, ReadError, WriteError
 
-__all__ = ["atomic_path", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles",
+__all__ = ["atomic_path", "remove_dead_temporaries", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles",
            "KILL_ONCE_ENV", "kill_once_for_tests"]
 
 #: loggers of the parsers that print their notes through handlers of their own
@@ -179,6 +181,38 @@ def no_triangles(path, kinds):
                     f"pass a surface mesh")
 
 
+def remove_dead_temporaries(path):
+    """Remove the hidden temporaries ``.<name>.<pid>.tmp<suffix>`` beside ``path`` whose process is gone (a run
+    killed between writing and renaming leaves one); a live process's are left alone. Returns what was removed."""
+    path = Path(path)
+    pattern = re.compile(r"^\." + re.escape(path.name) + r"\.(\d+)\.tmp")
+    removed = []
+    try:
+        entries = list(path.parent.iterdir())
+    except OSError:
+        return removed
+    for p in entries:
+        m = pattern.match(p.name)
+        if not m or int(m.group(1)) == os.getpid():
+            continue
+        try:
+            os.kill(int(m.group(1)), 0)
+            continue  # alive (or another user's): not ours to remove
+        except ProcessLookupError:
+            pass
+        except (PermissionError, OverflowError, OSError):
+            continue
+        try:
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                p.unlink(missing_ok=True)
+            removed.append(p)
+        except OSError:
+            pass
+    return removed
+
+
 @contextmanager
 def atomic_path(path):
     """A temporary path beside ``path`` that replaces it on success.
@@ -202,6 +236,7 @@ def atomic_path(path):
     path = Path(path)
     if not path.parent.is_dir():
         raise WriteError(f"folder {path.parent} does not exist; create it first or choose another output path")
+    remove_dead_temporaries(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     try:
         yield tmp

@@ -122,12 +122,16 @@ class SampleSeries:
         value column, ``'value'`` for a wide file.
     files : list of Path
         The file read, or the per-time files in time order.
+    times_from : str
+        Where the times came from, in words (``"the value columns' names"``, ``"the file's 'times'"``,
+        ``"the step numbers"``, ``"the 'time' column"``, ``"the file names"``), for the user to check.
     """
 
     samples: Samples
     times: np.ndarray
     names: list = field(default_factory=lambda: ["value"])
     files: list = field(default_factory=list)
+    times_from: str = "the step numbers"
 
     @property
     def vals(self):
@@ -211,13 +215,14 @@ def _read_wide(path, V, tab, opts):
     nc = _ncoord(tab)
     vals = tab.table[:, nc:]
     T = vals.shape[1]
-    times = None
+    times, source = None, "the step numbers"
     if path.suffix.lower() == ".npz":
         times = load_npz(path).get("times")
         if times is not None:
-            times = _npz_times(path, times, T)
+            times, source = _npz_times(path, times, T), "the file's 'times'"
     if times is None and tab.names is not None:
         times = _times_from_names(tab.names)
+        source = source if times is None else "the value columns' names"
     if times is None:
         times = np.arange(T, dtype=np.float64)
     order = np.argsort(times, kind="stable")
@@ -225,7 +230,7 @@ def _read_wide(path, V, tab, opts):
     table = SampleTable(tab.kind, np.column_stack([tab.table[:, :nc], vals[:, order]]),
                         [labels[j] for j in order], tab.lines)
     S = samples_from_table(path, V, table, **opts)
-    return SampleSeries(S, times[order], ["value"], [path])
+    return SampleSeries(S, times[order], ["value"], [path], source)
 
 
 def _npz_times(path, times, T):
@@ -274,7 +279,7 @@ def _read_long(path, V, tab, opts):
     vals[cell] = values
     table = SampleTable(tab.kind, np.column_stack([ukeys, vals.reshape(k, T)]), [repr(float(x)) for x in times])
     S = samples_from_table(path, V, table, **opts)
-    return SampleSeries(S, times.astype(np.float64), [tab.names[1]], [path])
+    return SampleSeries(S, times.astype(np.float64), [tab.names[1]], [path], "the 'time' column")
 
 
 def _folder_files(folder):
@@ -326,7 +331,7 @@ def _read_files(files, pattern, V, opts):
     labels = [repr(float(x)) for x in times]
     table = SampleTable("vertex" if len(ref) == 2 else "points", np.column_stack([keys] + cols), labels)
     S = samples_from_table(first, V, table, **opts)
-    return SampleSeries(S, times, [ref[-1]], files)
+    return SampleSeries(S, times, [ref[-1]], files, "the file names")
 
 
 def _difference(keys, other, kind, first):

@@ -113,7 +113,8 @@ def digital_surface(mask, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), co
     E = np.sort(np.concatenate(E), axis=1)
     smooth = ndimage.gaussian_filter(mask.astype(np.float64), sigma=1.0 / h * h.min(), mode="constant")
     # an axis one voxel thick has no difference along it (np.gradient needs two)
-    grad = np.stack([np.gradient(smooth, h[a], axis=a)[D] if mask.shape[a] > 1 else np.zeros(len(voxels))
+    # in units of the smallest spacing: only the direction matters, and 1 / h overflows its square at h = 1e-300
+    grad = np.stack([np.gradient(smooth, h[a] / h.min(), axis=a)[D] if mask.shape[a] > 1 else np.zeros(len(voxels))
                      for a in range(3)], axis=1)
     norm = np.linalg.norm(grad, axis=1, keepdims=True)
     normals = np.divide(-grad, norm, out=np.zeros_like(grad), where=norm > 0)
@@ -151,7 +152,8 @@ def digital_surface_graph(P, E, normals=None, *, distance="length"):
     """
     check_option("distance", distance, DISTANCES)
     n = len(P)
-    length = np.linalg.norm(P[E[:, 0]] - P[E[:, 1]], axis=1)
+    Pu = np.asarray(P, dtype=np.float64) / unit_scale(P)  # a power of two: at 1e-300 the squares underflow
+    length = np.linalg.norm(Pu[E[:, 0]] - Pu[E[:, 1]], axis=1)
     G_hops = _graph(n, E, np.ones(len(E)))
     G = G_hops if distance == "hops" else _graph(n, E, length / length.mean() if len(E) else length)
 

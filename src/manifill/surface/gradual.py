@@ -25,6 +25,7 @@ from ..errors import OptionError, SampleError
 from ..mesh.graph import offset_distances, voronoi_pairs
 from ..tolerances import TOL
 from ..validate import check_option
+from ..validate.samples import MAX_VALUE
 
 __all__ = ["lipschitz_constant", "GradualCheck", "check_gradual", "violation_message", "gvf", "lipschitz_extension",
            "EXTENSIONS"]
@@ -293,6 +294,9 @@ def check_gradual(surface, idx, vals, *, levels=None, distance=None, start=None)
                 A = float(vals.min()) + step * np.arange(m)
         else:
             A = np.asarray(levels, dtype=np.float64).ravel()
+            if A.size and np.isfinite(A).all() and np.abs(A).max() > MAX_VALUE:  # their differences overflow
+                raise SampleError(f"levels reach {np.abs(A).max():.3g}, beyond {MAX_VALUE:.0e}; pass levels within "
+                                  f"the values' scale (divide both by a power of ten)")
             if A.size == 0 or not np.all(np.isfinite(A)) or np.any(np.diff(A) <= 0):
                 raise SampleError("levels must be finite and strictly increasing; sort them and drop repeats")
         level = _snap_levels(vals, A)

@@ -168,7 +168,7 @@ def test_regression_extreme_levels_and_spacing_end_in_one_line_without_warnings(
         warnings.simplefilter("error")
         line = assert_usage_error(*run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.csv", "-o",
                                        tmp_path / "o.vtu", "--levels=-1e308,1e308"))
-        assert "levels reach 1e+308, beyond 1e+150" in line and not (tmp_path / "o.vtu").exists()
+        assert "levels reaches 1e+308 (rows 0, 1), beyond 1e+150" in line and not (tmp_path / "o.vtu").exists()
         code, out, err = run(capsys, "volume", tmp_path / "mask.npy", tmp_path / "v.csv", "-o", tmp_path / "o.vti",
                              "--spacing", "1e-300")
         assert code == 0 and err == "" and (tmp_path / "o.vti").exists(), err

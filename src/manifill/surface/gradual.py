@@ -5,12 +5,11 @@ variation condition when ``d(p, q) >= |i_p - i_q|`` for every pair of samples, w
 ``d`` the distance in the mesh graph (Chen 1989: exactly then a gradually varied
 extension exists).
 
-The paper checks it with one Dijkstra per sample (its Lemma 3.3). manifill needs
-one shortest-path pass: the upper envelope ``U(x) = min_q (i_q + d(x, q))`` is
-computed for all ``x`` at once by a Dijkstra from a virtual source joined to every
-sample ``q`` by an edge of length ``i_q`` (shifted to be positive); the condition
-holds exactly when ``U(p) = i_p`` at every sample ``p``, and where it fails, the
-sample ``q`` that attains ``U(p)`` is the worst partner of ``p``.
+The paper checks it with one Dijkstra per sample (its Lemma 3.3). manifill needs one shortest-path pass: the
+upper envelope ``U(x) = min_q (i_q + d(x, q))`` is computed for all ``x`` at once by a Dijkstra from a virtual
+source joined to every sample ``q`` by an edge of length ``i_q`` (shifted to be positive); the condition holds
+exactly when ``U(p) = i_p`` at every sample ``p``, and where it fails, the sample ``q`` that attains ``U(p)`` is
+the worst partner of ``p``.
 
 Distances are ``hops`` or ``length`` (:mod:`manifill.mesh.graph`); the integer gradually varied fit works on hops.
 """
@@ -24,8 +23,7 @@ from scipy.sparse import csgraph
 from ..errors import OptionError, SampleError
 from ..mesh.graph import offset_distances, voronoi_pairs
 from ..tolerances import TOL
-from ..validate import check_option
-from ..validate.samples import MAX_VALUE
+from ..validate import check_magnitude, check_option
 
 __all__ = ["lipschitz_constant", "GradualCheck", "check_gradual", "violation_message", "gvf", "lipschitz_extension",
            "EXTENSIONS"]
@@ -294,9 +292,7 @@ def check_gradual(surface, idx, vals, *, levels=None, distance=None, start=None)
                 A = float(vals.min()) + step * np.arange(m)
         else:
             A = np.asarray(levels, dtype=np.float64).ravel()
-            if A.size and np.isfinite(A).all() and np.abs(A).max() > MAX_VALUE:  # their differences overflow
-                raise SampleError(f"levels reach {np.abs(A).max():.3g}, beyond {MAX_VALUE:.0e}; pass levels within "
-                                  f"the values' scale (divide both by a power of ten)")
+            check_magnitude(A[np.isfinite(A)], "levels", "pass levels within the values' scale")
             if A.size == 0 or not np.all(np.isfinite(A)) or np.any(np.diff(A) <= 0):
                 raise SampleError("levels must be finite and strictly increasing; sort them and drop repeats")
         level = _snap_levels(vals, A)

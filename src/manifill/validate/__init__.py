@@ -26,7 +26,7 @@ from .grids import as_mask, as_origin, as_spacing, as_voxels
 from .meshes import as_cells, as_laplacian, as_mesh, as_tets, as_vertices
 from .objects import is_mesh_object, mesh_arrays, tet_arrays
 from .options import check_option, first_entries, integral_floats
-from .samples import as_indices, as_samples, as_values
+from .samples import as_indices, as_samples, as_values, check_magnitude
 from .scale import UNIT_WINDOW, bbox_diagonal, scale_and_diagonal, scale_of, unit_scale
 
 __all__ = [
@@ -46,6 +46,7 @@ __all__ = [
     "as_values",
     "as_samples",
     "check_option",
+    "check_magnitude",
     "first_entries",
     "integral_floats",
     "UNIT_WINDOW",

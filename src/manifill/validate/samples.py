@@ -129,12 +129,18 @@ def as_values(vals, k, *, what="vals"):
     if bad.any():
         rows = first_entries(np.flatnonzero(bad))
         raise SampleError(f"{what} has NaN or infinite values in rows {rows}; remove those samples")
-    big = np.abs(vals).max(initial=0.0)
-    if big > MAX_VALUE:
-        rows = first_entries(np.flatnonzero((np.abs(vals) > MAX_VALUE).any(axis=1)))
-        raise SampleError(f"{what} reaches {big:.3g} (rows {rows}), beyond {MAX_VALUE:.0e}, where the energies' "
-                          f"squares overflow; divide the values by a power of ten and scale the result back")
+    check_magnitude(vals, what)
     return np.ascontiguousarray(vals), squeeze
+
+
+def check_magnitude(a, what, fix="divide the values by a power of ten and scale the result back"):
+    """Refuse finite values beyond :data:`MAX_VALUE` in magnitude, naming the first rows, in one line."""
+    a = np.asarray(a, dtype=np.float64)
+    big = np.abs(a).max(initial=0.0)
+    if big > MAX_VALUE:
+        far = np.abs(a.reshape(len(a), -1)) > MAX_VALUE
+        raise SampleError(f"{what} reaches {big:.3g} (rows {first_entries(np.flatnonzero(far.any(axis=1)))}), "
+                          f"beyond {MAX_VALUE:.0e}, where the energies' squares overflow; {fix}")
 
 
 def as_samples(idx, vals, n, *, duplicates="error"):

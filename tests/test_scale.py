@@ -527,3 +527,57 @@ def rotated(F):
     k = np.argmin(F, axis=1)
     F = F[np.arange(len(F))[:, None], (k[:, None] + np.arange(3)) % 3]
     return F[np.lexsort(F.T[::-1])]
+
+
+# ---------------------------------------------------------------------------
+# every method, at any scale between 1e-8 and 1e8 (not only powers of two)
+# ---------------------------------------------------------------------------
+
+_RNG = np.random.default_rng(1)
+_V3, _F3 = icosphere(3)
+IRREGULAR = _V3 * (1 + 0.05 * _RNG.normal(size=(len(_V3), 1)))  # no two edges alike
+IDX40 = np.sort(np.random.default_rng(0).choice(len(_V3), 40, replace=False))
+UNIT = {}
+
+
+PARTITIONED = ("default", "gvf-harmonic", "gvf")
+
+
+@pytest.mark.parametrize("mesh, method", [(mesh, method) for method in PARTITIONED + ("harmonic", "biharmonic",
+                                                                                     "triharmonic", "rbf")
+                                           for mesh in ("regular", "irregular")
+                                           if not (mesh == "regular" and method in PARTITIONED)])
+@given(st.floats(-8.0, 8.0))
+@settings(max_examples=6, deadline=None, derandomize=True, database=None)
+def test_every_method_is_invariant_to_the_meshs_units(mesh, method, e):
+    # the default moved by 0.036 of the range at 1e8: Step 4's slopes (a quadratic fit whose conditioning test saw
+    # the units) and the vertex "a third along" a curve (a tie on regular meshes) were decided by rounding, which
+    # differs with the units (powers of two never showed it). On a regular mesh the partition's equal shortest
+    # paths are still chosen by rounding: see the xfail below
+    V = _V3 if mesh == "regular" else IRREGULAR
+    vals = np.sin(2 * V[IDX40, 0]) + V[IDX40, 1] * V[IDX40, 2]
+    if (mesh, method) not in UNIT:
+        UNIT[mesh, method] = reconstruct(V, _F3, IDX40, vals, method=method).values
+    ref = UNIT[mesh, method]
+    s = 10.0 ** e * 1.2345  # never a power of two
+    got = reconstruct(V * s, _F3, IDX40, vals, method=method).values
+    assert np.abs(got - ref).max() <= 1e-10 * np.ptp(vals)
+
+
+@pytest.mark.xfail(strict=True, reason="equal shortest paths (a regular mesh has many) are chosen by rounding, "
+                                      "which differs with the units; quantised lengths fixed it but broke a tie the "
+                                      "flat grid's linear precision relies on (docs/NOTES.md)")
+def test_partition_ties_on_a_regular_mesh():
+    V, F = icosphere(4)
+    idx = np.random.default_rng(0).choice(len(V), 100, replace=False)
+    vals = np.sin(2 * V[idx, 0]) + V[idx, 1] * V[idx, 2]
+    got, ref = reconstruct(V * 3.0, F, idx, vals).values, reconstruct(V, F, idx, vals).values
+    assert np.abs(got - ref).max() <= 1e-10 * np.ptp(vals)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 27: the gp's fitted hyperparameters depend on the mesh's units")
+def test_the_gp_is_invariant_to_the_meshs_units():
+    vals = np.sin(2 * IRREGULAR[IDX40, 0]) + IRREGULAR[IDX40, 1] * IRREGULAR[IDX40, 2]
+    ref = reconstruct(IRREGULAR, _F3, IDX40, vals, method="gp").values
+    got = reconstruct(IRREGULAR * 1e8, _F3, IDX40, vals, method="gp").values
+    assert np.abs(got - ref).max() <= 1e-10 * np.ptp(vals)

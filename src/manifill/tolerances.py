@@ -98,6 +98,10 @@ class Tolerances:
         A closest surface point (:func:`manifill.surface.locate.locate_points`) with a
         barycentric coordinate within ``bary_vertex`` of 1 sits at that vertex; coordinates
         below it are 0 (the point is on the opposite edge).
+    tie_rtol : float
+        Relative margin of Step 4's "a third of the curve's length" (the vertex whose direction gives a curve
+        end's tangent): a vertex within it of the third is short of it, whatever rounding says
+        (:mod:`manifill.surface.curve_values`; regular meshes put vertices exactly there).
     point_rank : float
         The rows of points inside faces (barycentric constraints) are independent when
         the smallest singular value of each coupled block is above ``point_rank`` times
@@ -131,6 +135,7 @@ class Tolerances:
     bary_vertex: float = 1e-12
     point_rank: float = 1e-10
     affine_span: float = 1e-9
+    tie_rtol: float = 1e-9
 
 
 TOL = Tolerances()

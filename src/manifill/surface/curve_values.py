@@ -229,7 +229,9 @@ def _hermite(V, F, curves, ends, idx, vals, normals=None, monotone=False):
         return np.divide(d, nd, out=np.zeros_like(d), where=nd > 0)
 
     # the vertex a third of the way along, from either end (at least one step in)
-    third = ell[cid] / 3.0
+    # (a vertex at a third, common on regular meshes, counts as short of it: rounding, which differs with the
+    # mesh's units, must not decide which vertex gives the end's direction)
+    third = ell[cid] * (1.0 / 3.0 - TOL.tie_rtol)
     ja = np.clip(np.bincount(cid, weights=s < third, minlength=len(curves)).astype(np.int64), 1, lens - 1)
     jb = np.clip(np.bincount(cid, weights=(ell[cid] - s) < third, minlength=len(curves)).astype(np.int64),
                  1, lens - 1)

@@ -93,7 +93,13 @@ def sample_gradients(V, normals, ends, idx, vals):
     d1 = np.einsum("ij,ij->i", d, e1[rows])
     d2 = np.einsum("ij,ij->i", d, e2[rows])
     y = vals[nbrs] - vals[rows]
-    w = 1.0 / np.maximum(np.hypot(d1, d2), TOL.tiny)
+    # offsets in units of each sample's mean neighbour distance: the quadratic fit's columns (lengths and squared
+    # lengths) then keep their ratio whatever the mesh's units, and so does its conditioning test
+    dist = np.hypot(d1, d2)
+    h = np.bincount(rows, weights=dist, minlength=k) / np.maximum(count, 1)
+    h = np.where(h > 0, h, 1.0)
+    d1, d2 = d1 / h[rows], d2 / h[rows]
+    w = 1.0 / np.maximum(dist / h[rows], TOL.tiny)
     coef = np.zeros((k, 2, p))
     done = np.zeros(k, dtype=bool)
     sizes = count[rows]
@@ -120,6 +126,7 @@ def sample_gradients(V, normals, ends, idx, vals):
             inv = np.where(S > TOL.gradient_line_rcond * S[:, :1], 1.0 / np.where(S > 0, S, 1.0), 0.0)
             coef[group[line]] = np.einsum("kji,kj,klj,klp->kip", Vt, inv, U, Yw[line])
             done[group[line]] = True
+    coef /= h[:, None, None]  # back to the mesh's units
     grads = e1[:, :, None] * coef[:, None, 0, :] + e2[:, :, None] * coef[:, None, 1, :]
     return grads, done
 

@@ -172,3 +172,17 @@ def test_regression_extreme_levels_and_spacing_end_in_one_line_without_warnings(
         code, out, err = run(capsys, "volume", tmp_path / "mask.npy", tmp_path / "v.csv", "-o", tmp_path / "o.vti",
                              "--spacing", "1e-300")
         assert code == 0 and err == "" and (tmp_path / "o.vti").exists(), err
+
+
+def test_regression_a_full_disk_names_the_file_and_the_cause(tmp_path, monkeypatch, capsys):
+    # was "238328 requested and 130544 written", with no file name or cause; nothing may be left behind
+    def short_write(*args, **kwargs):
+        raise OSError("238328 requested and 130544 written")  # what numpy says when the disk fills up
+
+    np.save(tmp_path / "mask.npy", np.ones((6, 6, 6), bool))
+    (tmp_path / "v.csv").write_text("x,y,z,value\n0,0,0,1.0\n5,5,5,2.0\n")
+    monkeypatch.setattr(np.lib.format, "write_array", short_write)
+    line = assert_usage_error(*run(capsys, "volume", tmp_path / "mask.npy", tmp_path / "v.csv", "-o",
+                                   tmp_path / "out.npy"))
+    assert "out.npy: could not be written (238328 requested and 130544 written: the disk is probably full)" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mask.npy", "v.csv"]

@@ -130,3 +130,23 @@ def test_at_interpolates_linearly_on_the_triangles_and_refuses_far_points():
         r.at([[10.0, 0.0, 0.0]])
     with pytest.raises(ValueError, match="no std"):
         reconstruct(V, F, idx, V[idx, 0]).at(V[:1], return_std=True)
+
+
+def test_to_pyvista_and_to_meshio_keep_the_input_meshs_own_arrays():
+    # the normals (and every array) of a PolyData given as the mesh were lost on the way out
+    pv = pytest.importorskip("pyvista")
+    import meshio
+
+    m = pv.Sphere(theta_resolution=20, phi_resolution=20).compute_normals()
+    m.point_data["thickness"] = np.arange(m.n_points, dtype=float)
+    m.cell_data["region"] = np.arange(m.n_cells)
+    r = reconstruct(m, None, [0, 50, 150, 300], [1.0, 2.0, 0.5, 3.0], method="harmonic")
+    out = r.to_pyvista(["t"])
+    np.testing.assert_array_equal(out.point_data["thickness"], m.point_data["thickness"])
+    np.testing.assert_array_equal(out.point_data["Normals"], m.point_data["Normals"])
+    np.testing.assert_array_equal(out.cell_data["region"], m.cell_data["region"])
+    assert list(out.point_data.keys())[:2] == ["t", "sample_mask"]  # ours first; a clash keeps ours
+    mm = meshio.Mesh(np.asarray(m.points), [("triangle", m.regular_faces)], point_data={"t": np.zeros(m.n_points),
+                                                                                         "own": np.ones(m.n_points)})
+    got = reconstruct(mm, None, [0, 50, 150, 300], [1.0, 2.0, 0.5, 3.0], method="harmonic").to_meshio(["t"])
+    assert np.array_equal(got.point_data["own"], np.ones(m.n_points)) and got.point_data["t"][50] == 2.0

@@ -9,6 +9,7 @@ notes) never reach the user. A small file whose header claims billions of items 
 the bytes the file has before anything is allocated.
 """
 
+import errno
 import io
 import logging
 import os
@@ -181,6 +182,16 @@ def no_triangles(path, kinds):
                     f"pass a surface mesh")
 
 
+def _cause(exc):
+    """An OSError in a few words: the system's reason, or numpy's short write read as a full disk."""
+    if exc.errno == errno.ENOSPC:
+        return "no space left on the device"
+    if exc.errno == errno.EDQUOT:
+        return "disk quota exceeded"
+    text = exc.strerror or str(exc)
+    return f"{text}: the disk is probably full" if "written" in text and "requested" in text else text
+
+
 def remove_dead_temporaries(path):
     """Remove the hidden temporaries ``.<name>.<pid>.tmp<suffix>`` beside ``path`` whose process is gone (a run
     killed between writing and renaming leaves one); a live process's are left alone. Returns what was removed."""
@@ -239,7 +250,11 @@ def atomic_path(path):
     remove_dead_temporaries(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     try:
-        yield tmp
+        try:
+            yield tmp
+        except OSError as exc:  # a full disk, a quota, a vanished folder: the file and the cause, in one line
+            raise WriteError(f"{path.name}: could not be written ({_cause(exc)}); free some space or write it "
+                             f"elsewhere") from None
         kill_once_for_tests()
         try:
             os.replace(tmp, path)

@@ -50,6 +50,11 @@ class Reconstruction(Result):
         written to files as ``<field>_std``.
     trusted : (n,) bool numpy array or None
         With ``trust=``: False where the std of some field exceeds the threshold.
+    names : list of str or None
+        The fields' names (:attr:`field_names` makes ``value, value2, ...`` when None).
+    source : object or None
+        The mesh object the reconstruction was given (a pyvista, trimesh or meshio mesh), whose own
+        per-vertex (and per-face) arrays :meth:`to_pyvista` and :meth:`to_meshio` carry over.
     """
 
     values: np.ndarray
@@ -65,6 +70,7 @@ class Reconstruction(Result):
     std: np.ndarray = None
     trusted: np.ndarray = None
     names: list = None
+    source: object = None
 
     def _domain(self):
         kind = "vertices" if self.F is not None else "surface voxels"
@@ -173,9 +179,22 @@ class Reconstruction(Result):
         ['curve_mask', 'patch_label', 'sample_mask', 't']
         """
 
-        return to_pyvista(self.V, self.F, self.point_data(names))
+        mesh = to_pyvista(self.V, self.F, self.point_data(names))
+        for kind, ours, count in (("point_data", mesh.point_data, len(self.V)), ("cell_data", mesh.cell_data,
+                                                                                 len(self.F))):
+            theirs = getattr(self.source, kind, None)
+            if theirs is None or (kind == "cell_data" and getattr(self.source, "n_cells", count) != count):
+                continue
+            for key in list(theirs.keys()):
+                if key not in ours.keys() and len(theirs[key]) == count:
+                    ours[key] = theirs[key]
+        return mesh
 
     def to_meshio(self, names=None):
         """The surface with every field and mask as a ``meshio.Mesh``."""
 
-        return to_meshio(self.V, self.F, self.point_data(names))
+        data = self.point_data(names)
+        theirs = getattr(self.source, "point_data", None) or {}
+        extra = {key: np.asarray(a) for key, a in dict(theirs).items()
+                 if key not in data and len(np.asarray(a)) == len(self.V)}
+        return to_meshio(self.V, self.F, {**data, **extra})

@@ -27,6 +27,7 @@ from ..errors import OptionError, SampleError
 from ..linalg.quadratic import QuadraticSolver
 from ..memory import check_fits
 from ..validate import as_indices, as_mesh, as_samples, check_option
+from ..validate.objects import is_mesh_object
 from .energy_fill import as_bounds
 from .engine import reconstruct_surface
 from .locate import locate_points
@@ -97,6 +98,7 @@ class Reconstructor:
         if fields is not None and not (isinstance(fields, (int, np.integer)) and fields >= 1):
             raise OptionError(f"fields={fields!r} is not a whole number >= 1 (how many fields you will "
                               f"reconstruct); pass one, or None for many")
+        self._source = V if is_mesh_object(V) else None  # its own arrays go back out with the result
         V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"))
         self.method, self._method = o.method, method_of(o.method)
         self.default = o.preset is not None
@@ -195,6 +197,7 @@ class Reconstructor:
         r = reconstruct_surface(self.surface, idx, v, options=options, progress=progress, seconds=seconds,
                                 points=points, fields=self.fields, prepared=self._prepared)
         r.report["default"] = self.default
+        r.source = self._source
         smoothed = r.report.get("harmonic", {}).get("smoothing")
         if smoothed is not None:  # residuals in the caller's rows and shape
             at = r.points.interpolate(r.values) if points is not None else r.values[self._raw]

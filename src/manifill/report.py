@@ -103,17 +103,25 @@ def uncertainty_lines(report, std, trusted=None, point_ndim=1):
         if any(x is None for x in gp.get("sigma") or [None]):  # alpha=1: no finite variance, a fitted scale
             parts[1] = f"scale {_numbers(gp.get('scale'))} (fitted; no marginal sigma at nu <= 0)"
         bounds = gp.get("fit", {}).get("range_bounds")
+        advice = None
         if "range" in fitted and bounds and gp.get("range"):
             at = [b for b in bounds if any(abs(r - b) <= 1e-3 * b for r in gp["range"])]
-            if at:  # the likelihood wanted a range beyond the search: say so
+            if at:  # the likelihood wanted a range beyond the search: say so, and what it means
                 side = "upper" if at[0] == bounds[-1] else "lower"
                 parts[0] = parts[0][:-1] + f", at the search's {side} bound)"
+                advice = (f"  the likelihood wanted a range {'above' if side == 'upper' else 'below'} the search's "
+                          + ("(the field is smoother than the samples can tell): its std is a rough guide; "
+                             "method='biharmonic' (bounds='samples') fits such fields well" if side == "upper" else
+                             "(the samples look uncorrelated at their spacing: noise, or a field rougher than they "
+                             "resolve): add samples, or pass range= (e.g. the samples' spacing) and noise="))
         line = f"gp: Matern alpha={gp.get('alpha')} (nu={float(gp.get('nu', 0)):g}), " + ", ".join(parts)
         if "loglik" in gp:
             crit = gp.get("fit", {}).get("criterion", "restricted likelihood")
             what = "restricted log-likelihood" if crit.startswith("restricted") else "log-likelihood"
             line += f"; {what} {gp['loglik']:.5g} on {gp.get('fit', {}).get('samples', '?')} samples"
         lines.append(line)
+        if advice:
+            lines.append(advice)
         info = gp.get("variance", {})
     else:
         unc = report.get("uncertainty", {})

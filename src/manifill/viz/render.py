@@ -74,6 +74,44 @@ def _look(look, options, function):
     return replace(look, **options)
 
 
+def nice_range(values):
+    """``((lo, hi), labels)``: the values' range widened to 4 or 5 round steps (1, 2, 2.5 or 5 times a power of
+    ten; the least widening wins), so that every tick of a colour bar is a round number.
+
+    Examples
+    --------
+    >>> nice_range([-0.937, 1.02])
+    ((-1.0, 1.5), 6)
+    >>> nice_range([-0.646, 0.752])
+    ((-1.0, 1.0), 5)
+    >>> nice_range([0.0509, 0.0509])
+    ((0.0509, 0.0509), 2)
+    """
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return (0.0, 1.0), 2
+    lo, hi = float(v.min()), float(v.max())
+    if not hi > lo:
+        return (lo, hi), 2
+    best = None
+    for steps in (4, 5):
+        raw = (hi - lo) / steps
+        mag = 10.0 ** np.floor(np.log10(raw))
+        for m in (1.0, 2.0, 2.5, 5.0, 10.0):
+            step = m * mag
+            if step < raw * (1 - 1e-12):
+                continue
+            a = np.floor(lo / step + 1e-9) * step
+            if a + steps * step < hi - 1e-9 * step:
+                continue
+            wide = steps * step - (hi - lo)
+            if best is None or wide < best[0] - 1e-12 * step:
+                ends = (float(f"{round(a / step) * step:.12g}"), float(f"{round(a / step + steps) * step:.12g}"))
+                best = (wide, *ends, steps + 1)
+    return (best[1], best[2]), best[3]
+
+
 def _style(kind, name, values, cmap, clim):
     """``(cmap, clim, extra add_mesh keywords, extra scalar bar keywords)`` of a field of ``kind``."""
     if kind == "mask":
@@ -111,10 +149,19 @@ def _add_surface(pl, pv, panel, clim, cmap):
         mesh.point_data[name] = np.asarray(values, dtype=np.float64)
         kind = panel.get("kind", "value")
         cmap, clim, extra, bar = _style(kind, name, values, panel.get("cmap", cmap), panel.get("clim", clim))
+        labels = 5
+        if kind != "mask":  # round ticks: the colour range widened to a whole number of round steps
+            clim, labels = nice_range(values if clim is None else np.asarray(clim, dtype=np.float64))
         pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, smooth_shading=True, nan_color="lightgrey",
-                    scalar_bar_args={"title": name, "vertical": False, "n_labels": 5, "fmt": "%.3g",
+                    scalar_bar_args={"title": name, "vertical": False, "n_labels": labels, "fmt": "%.4g",
                                      "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
                     **extra)
+        if kind != "mask":  # labels under the bar, the name above it (VTK's own title sat on the middle label)
+            for actor in pl.scalar_bars.values():
+                actor.SetTextPositionToPrecedeScalarBar()
+                actor.SetTitle("")
+            text = pl.add_text(name, position=(0.5, 0.125), viewport=True, font_size=12, color="black")
+            text.GetTextProperty().SetJustificationToCentered()
     else:
         pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
     curves = panel.get("curves")

@@ -123,7 +123,7 @@ def paper_figures(out, field, label):
     r = reconstruct(V, F, idx, truth[idx], partition="cycle")
     path = out / "fig4_1_cycle.png"
     render_panels([dict(V=V, F=F, values=r.components.astype(float), samples=idx, curves=r.curves, name="patch",
-                        title="5 samples, one cycle: the patches"),
+                        kind="category", title="5 samples, one cycle: the patches"),
                    dict(V=V, F=F, values=r.values, samples=idx, curves=r.curves, title="gvf-harmonic")],
                   path, size=(1100, 500), same_scale=False)
     files.append(path)

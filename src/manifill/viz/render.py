@@ -118,6 +118,12 @@ def _style(kind, name, values, cmap, clim):
         (l0, c0), (l1, c1) = MASK_STYLES.get(name, MASK_STYLES[None])
         bar = {"n_labels": 0, "position_y": 0.1}  # room below the bar for the two labels
         return [c0, c1], [0.0, 1.0], {"n_colors": 2, "annotations": {0.0: l0, 1.0: l1}}, bar
+    if kind == "category":  # labels (patches): one flat colour each, a legend of names, no continuous ticks
+        cats = np.unique(np.asarray(values)[np.isfinite(values)]).astype(np.int64)
+        ann = {float(c): ("curves" if c < 0 else f"{name} {c}") for c in cats}
+        bar = {"n_labels": 0, "position_y": 0.03}  # its names above it, clear of the object
+        return "tab10", [float(cats.min()) - 0.5, float(cats.max()) + 0.5], {"n_colors": len(cats),
+                                                                              "annotations": ann}, bar
     if kind == "std":
         return STD_CMAP, clim if clim is not None else field_range("std", values), {}, {}
     return cmap, clim, {}, {}
@@ -150,17 +156,20 @@ def _add_surface(pl, pv, panel, clim, cmap):
         kind = panel.get("kind", "value")
         cmap, clim, extra, bar = _style(kind, name, values, panel.get("cmap", cmap), panel.get("clim", clim))
         labels = 5
-        if kind != "mask":  # round ticks: the colour range widened to a whole number of round steps
+        if kind not in ("mask", "category"):  # round ticks: the colour range widened to a whole number of round steps
             clim, labels = nice_range(values if clim is None else np.asarray(clim, dtype=np.float64))
+        before = set(pl.scalar_bars.keys())
         pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, smooth_shading=True, nan_color="lightgrey",
                     scalar_bar_args={"title": name, "vertical": False, "n_labels": labels, "fmt": "%.4g",
                                      "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
                     **extra)
-        if kind != "mask":  # labels under the bar, the name above it (VTK's own title sat on the middle label)
-            for actor in pl.scalar_bars.values():
-                actor.SetTextPositionToPrecedeScalarBar()
-                actor.SetTitle("")
-            text = pl.add_text(name, position=(0.5, 0.125), viewport=True, font_size=12, color="black")
+        new = [key for key in pl.scalar_bars.keys() if key not in before]  # a bar shared with a panel before: none
+        if kind not in ("mask", "category") and new:  # labels under the bar, the name above it (VTK's title sat
+            for key in new:                           # on the middle label)
+                pl.scalar_bars[key].SetTextPositionToPrecedeScalarBar()
+                pl.scalar_bars[key].SetTitle("")
+            text = pl.add_text(panel.get("bar_title", name), position=(0.5, 0.125), viewport=True, font_size=12,
+                               color="black")
             text.GetTextProperty().SetJustificationToCentered()
     else:
         pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
@@ -202,7 +211,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         ``samples`` (k,) vertex indices, ``curves`` (list of vertex paths),
         ``colour_curves`` (draw the curves thick and coloured by ``values``),
         ``title``, ``name`` (of the field, for the colour bar), ``kind`` (``'value'``,
-        ``'std'`` or ``'mask'``: the colour map, :func:`manifill.viz.viewer.field_kind`),
+        ``'std'``, ``'mask'`` or ``'category'``, e.g. patch labels, in flat colours with a legend of
+        names: the colour map, :func:`manifill.viz.viewer.field_kind`),
         ``cmap`` and ``clim`` (this panel's own map and range).
     path : str or Path
         The PNG to write.
@@ -232,6 +242,10 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         finite = [f for f in finite if f.size]
         if finite:
             clim = [float(min(f.min() for f in finite)), float(max(f.max() for f in finite))]
+        if len(finite) > 1:  # one bar, under the first panel, for all of them: say so
+            panels = [dict(p, bar_title=f"{p.get('name', 'value')}: one scale for all panels")
+                      if p.get("values") is not None and p.get("kind", "value") == "value" and "clim" not in p else p
+                      for p in panels]
     pl = pv.Plotter(off_screen=True, shape=(1, len(panels)), window_size=list(size), border=False)
     for j, panel in enumerate(panels):
         pl.subplot(0, j)

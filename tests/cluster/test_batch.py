@@ -4,6 +4,7 @@ partial and the job is retried, a job that will not fit is refused with its esti
 
 import csv
 import os
+import time
 
 import meshio
 import numpy as np
@@ -211,3 +212,26 @@ def test_a_manifest_writing_to_a_new_folder_works_as_written(tmp_path, inputs, c
     status = {r["id"]: r for r in result.rows}
     assert status["a"]["status"] == status["b"]["status"] == "done" and (out / "a.vtu").exists()
     assert status["blocked"]["status"] == "failed" and "could not make the folder of x.vtu" in status["blocked"]["error"]
+
+
+def test_an_interrupted_batch_keeps_every_finished_job_in_its_summary(tmp_path, inputs, client):
+    from manifill.cluster.run import read_summary
+
+    # after SIGTERM the jobs that finished in the last second were missing from the summary and ran again
+    out = tmp_path / "out"
+    js = jobs(inputs, out)[:3]
+
+    def stop(row, finished, total):
+        if finished == 1:  # the signal comes once every job has finished, before the others are recorded
+            deadline = time.monotonic() + 60
+            while not all((out / f"{j}.vtu").exists() for j in "abc") and time.monotonic() < deadline:
+                time.sleep(0.05)
+            time.sleep(0.5)
+            raise KeyboardInterrupt  # what the CLI's SIGTERM handler raises
+
+    with pytest.raises(KeyboardInterrupt):
+        manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv", progress=stop)
+    written = {r["id"]: r["status"] for r in read_summary(tmp_path / "s.csv").values()}
+    assert written == {"a": "done", "b": "done", "c": "done"}
+    again = manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv")
+    assert {r["id"] for r in again.rows if r["status"] == "skipped"} == set(written)

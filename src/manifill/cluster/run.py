@@ -187,17 +187,23 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
             count = len(client.scheduler_info().get("workers", {}))
             futures = {client.submit(run_job, job, digest, key=f"manifill-job-{job.id}-{digest[:12]}", pure=False,
                                      priority=_size(job)): (job, digest) for job, digest in todo}
-            for future in distributed.as_completed(futures):
-                job, digest = futures[future]
-                try:
-                    row = future.result()
-                except distributed.KilledWorker:
-                    row = _row(job, digest, status="failed",
-                               error="its worker died every time it ran it (out of memory, or killed); give workers "
-                                     "more memory (--memory-limit) or run the job alone")
-                except Exception as exc:  # noqa: BLE001 - the cluster's failure, reported for this job alone
-                    row = _row(job, digest, status="failed", error=f"{type(exc).__name__}: {_one_line(exc)}")
-                record(job, row)
+            try:
+                for future in distributed.as_completed(futures):
+                    job, digest = futures[future]
+                    try:
+                        row = future.result()
+                    except distributed.KilledWorker:
+                        row = _row(job, digest, status="failed",
+                                   error="its worker died every time it ran it (out of memory, or killed); give "
+                                         "workers more memory (--memory-limit) or run the job alone")
+                    except Exception as exc:  # noqa: BLE001 - the cluster's failure, reported for this job alone
+                        row = _row(job, digest, status="failed", error=f"{type(exc).__name__}: {_one_line(exc)}")
+                    record(job, row)
+            finally:  # interrupted (SIGTERM, Ctrl-C): the jobs that finished are in the summary, not recomputed
+                for future, (job, digest) in futures.items():
+                    if job.id not in rows and future.status == "finished":
+                        rows[job.id] = future.result()
+                write_summary(path, [rows[j.id] for j in job_list if j.id in rows])
     return BatchResult(rows=[rows[j.id] for j in job_list], summary=path, seconds=time.perf_counter() - t0,
                        workers=count)
 

@@ -201,7 +201,8 @@ def _add_surface(pl, pv, panel, clim, cmap):
         pl.add_text(panel["title"], font_size=11, position="upper_edge")
 
 
-def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=True, view=None, viewup=None):
+def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=True, view=None, viewup=None,
+                  zoom=1.0):
     """Render surfaces side by side into one PNG.
 
     Parameters
@@ -222,6 +223,9 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         A matplotlib colour map name.
     same_scale : bool, optional
         One colour range for all panels of kind ``'value'`` without a ``clim`` (to compare them).
+    zoom : float, optional
+        Magnify every panel's view by this much (above 1 for wide objects, which the camera's
+        fit to their bounding sphere leaves small).
     view : tuple of 3 floats, optional
         Direction the camera looks from (default: pyvista's isometric view).
     viewup : tuple of 3 floats, optional
@@ -252,6 +256,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         _add_surface(pl, pv, panel, clim, cmap)
         if view is not None:
             pl.view_vector(view, viewup=viewup)
+        if zoom != 1.0:  # a wide object fills its panel (the camera fits its bounding sphere)
+            pl.camera.zoom(zoom)
         pl.set_background("white")
     if len(panels) > 1:
         pl.link_views()

@@ -392,17 +392,24 @@ def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 45
     clim = [float(finite.min()), float(finite.max())] if finite.size else None
     kind = field_kind(name, values)  # a std from 0 on its own map, a mask in two colours
     cmap, shown, extra, bar = _style(kind, name, values, cmap, clim if kind == "value" else None)
+    labels = 5
+    if kind == "value" and clim:  # round ticks, as on the surfaces
+        shown, labels = nice_range(np.asarray(clim))
+    centre = grid.center
     pl = pv.Plotter(off_screen=True, shape=(1, 3), window_size=list(size), border=False)
-    for j, (normal, label) in enumerate((("x", "x"), ("y", "y"), ("z", "z"))):
+    for j, normal in enumerate("xyz"):
         pl.subplot(0, j)
         sl = grid.slice(normal=normal)
         sl = sl.threshold(value=clim, scalars=name) if clim else sl
         pl.add_mesh(sl, scalars=name, cmap=cmap, clim=shown, nan_opacity=0.0,
-                    scalar_bar_args={"title": name, "vertical": False, "fmt": "%.3g", "position_x": 0.15,
-                                     "position_y": 0.04, "width": 0.7, "height": 0.08, **bar}, **extra)
-        pl.add_text(f"slice across {label}", font_size=10, position="upper_edge")
+                    scalar_bar_args={"title": f"{name} (one scale for the three slices)", "vertical": False,
+                                     "fmt": "%.4g", "n_labels": labels, "position_x": 0.15, "position_y": 0.02,
+                                     "width": 0.7, "height": 0.16, **bar}, **extra)
+        at = float(centre["xyz".index(normal)])
+        pl.add_text(f"slice at {normal} = {at:.3g}", font_size=10, position="upper_edge", color="black")
         pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal],
                        viewup=(0, 1, 0) if normal == "z" else (0, 0, 1))
+        pl.add_axes(color="black", line_width=2, viewport=(0.8, 0.7, 1.0, 0.9))  # which way x, y and z point
         pl.set_background("white")
     try:
         pl.screenshot(str(path))

@@ -251,8 +251,8 @@ def test_progress_is_told_every_step():
 
 @pytest.mark.skipif(chromium() is None, reason=NEEDS_CHROMIUM)
 def test_viewer_hover_reads_the_value_under_the_pointer(tmp_path):
-    # the page's own picking, run in Chromium: at the centre of the canvas the unit sphere shows the point
-    # R^T e_z of its initial rotation (yaw 0.6, pitch 0.4), where the field z is cos(0.4) cos(0.6)
+    # the page's own picking, run in Chromium: the page opens with the PNGs' camera (pyvista's isometric view,
+    # from (1, 1, 1)), so at the centre of the canvas the unit sphere shows (1, 1, 1) / sqrt(3), where z = 1/sqrt(3)
     V, F = icosphere(5)
     page = tmp_path / "v.html"
     write_html(page, V, F, V[:, 2])
@@ -262,7 +262,7 @@ def test_viewer_hover_reads_the_value_under_the_pointer(tmp_path):
            "--window-size=640,480", "--dump-dom", page.as_uri() + "#pick=0.5,0.5"]
     dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False).stdout
     value, vertex = dom.split('<div id="pick-result">')[1].split("</div>")[0].split()
-    assert abs(float(value) - np.cos(0.4) * np.cos(0.6)) < 0.01
+    assert abs(float(value) - 1 / np.sqrt(3)) < 0.01
     assert abs(V[int(vertex), 2] - float(value)) < 0.02  # the nearest corner of the triangle hit
 
 
@@ -390,7 +390,7 @@ def between(text, start, end="</"):
 @pytest.mark.parametrize("field, scale, shift", [("2z+1", 2.0, 1.0), (EVIL, -1.0, 0.0)])
 def test_viewer_switches_field_and_picks_it_in_headless_chromium(tmp_path, field, scale, shift):
     # fields z, 2z+1 and -z on the unit sphere; the page switches to one (window.manifillSelectField, from the
-    # URL) and its own picking reads that field at the canvas centre, where z = cos(0.4) cos(0.6) (see above)
+    # URL) and its own picking reads that field at the canvas centre, where z = 1/sqrt(3) (see above)
     from urllib.parse import quote
 
     V, F = icosphere(5)
@@ -399,7 +399,7 @@ def test_viewer_switches_field_and_picks_it_in_headless_chromium(tmp_path, field
     write_html(page, V, F, {"z": z, "2z+1": 2 * z + 1, EVIL: -z})
     dom = run_chromium(tmp_path, page.as_uri() + "#field=" + quote(field, safe="") + "&pick=0.5,0.5", "--dump-dom")
     value, vertex = between(dom, '<div id="pick-result">').split()
-    assert abs(float(value) - (scale * np.cos(0.4) * np.cos(0.6) + shift)) < 0.01 * abs(scale)
+    assert abs(float(value) - (scale / np.sqrt(3) + shift)) < 0.01 * abs(scale)
     assert abs(scale * z[int(vertex)] + shift - float(value)) < 0.02 * abs(scale)
     import html
 

@@ -12,6 +12,7 @@ from conftest import assert_usage_error, files, run
 
 from manifill.io import write_mesh
 from manifill.mesh.shapes import icosphere
+import importlib
 
 
 @pytest.fixture
@@ -125,3 +126,43 @@ def test_a_name_csv_cannot_hold_is_refused_before_the_work(case, capsys):
     assert files(case) == ["m.ply", "q.csv", "s.csv"]
     code, _, _ = run(capsys, "harmonic", case / "m.ply", case / "q.csv", "-o", case / "o.vtu", "-q")
     assert code == 0  # the same name is fine where the format can hold it
+
+
+SLOW_CALL = """
+import sys
+import numpy as np
+import manifill.cli.reconstruct as rc
+from manifill.cli import main
+
+fill = rc.reconstruct
+
+
+def slow(*args, **kwargs):  # one long compiled call, as a large factorisation or a gp's dense solve makes
+    np.linalg.svd(np.random.default_rng(0).normal(size=(4000, 4000)))  # 15 s here
+    return fill(*args, **kwargs)
+
+
+rc.reconstruct = slow
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_is_honoured_within_seconds_even_inside_a_long_compiled_call(tmp_path, sig, code):
+    # SIGTERM during --method gp took 43 s: Python runs its handlers only between calls
+    V, F = icosphere(2)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    (tmp_path / "s.csv").write_text("vertex,t\n" + "".join(f"{i},{float(V[i, 2])!r}\n" for i in range(0, 162, 9)))
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_CALL, "reconstruct", "m.vtu", "s.csv", "-o", "o.vtu"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(1.5)  # inside the call by now (the import and the read take well under a second)
+    t = time.monotonic()
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=60)
+    waited = time.monotonic() - t
+    assert proc.returncode == code, err
+    assert err.count("\n") == 1 and "Traceback" not in err and "no output was left half-written" in err
+    assert importlib.import_module("manifill.cli.main").GRACE_SECONDS <= 3
+    assert waited < 6.0, f"stopped after {waited:.1f} s"  # the call alone runs about 15 s more
+    assert sorted(os.listdir(tmp_path)) == ["m.vtu", "s.csv"]

@@ -24,6 +24,7 @@ import threading
 from ..version import __version__
 from ..errors import ManifillError
 from . import check, cv, demo, harmonic, info, reconstruct, volume
+from ..io.files import remove_active_temporaries
 from .common import err
 
 __all__ = ["main", "build_parser", "add_command", "COMMANDS"]
@@ -136,7 +137,58 @@ def _terminate_as_interrupt():
         raise _Terminated()
 
     previous = signal.signal(signal.SIGTERM, raise_terminated)
+    watchdog = _Watchdog()
     try:
         yield
     finally:
+        watchdog.stop()
         signal.signal(signal.SIGTERM, previous)
+
+
+#: Seconds a signal may wait for the main thread (busy in one long call of a compiled solver) before the
+#: watchdog stops the process itself.
+GRACE_SECONDS = 3.0
+
+
+class _Watchdog:
+    """Honours SIGTERM and Ctrl-C within :data:`GRACE_SECONDS` even while the main thread is inside one long
+    compiled call (a factorisation, a dense eigen-solve: Python runs its handlers only between calls, and a gp
+    took 43 s to stop): the signal's number arrives on a pipe (``signal.set_wakeup_fd``) that a thread watches;
+    if the main thread has not unwound by then, the thread removes the temporaries of the writes under way, says
+    so in one line and ends the process (exit 143 or 130)."""
+
+    def __init__(self):
+        self._read, self._write = os.pipe()
+        os.set_blocking(self._write, False)
+        self._done = threading.Event()
+        self._previous = signal.set_wakeup_fd(self._write, warn_on_full_buffer=False)
+        self._thread = threading.Thread(target=self._watch, name="manifill-signal-watchdog", daemon=True)
+        self._thread.start()
+
+    def _watch(self):
+        while not self._done.is_set():
+            try:
+                got = os.read(self._read, 64)
+            except OSError:
+                return
+            wanted = [s for s in got if s in (signal.SIGTERM, signal.SIGINT)]
+            if self._done.is_set() or not wanted:
+                continue
+            if self._done.wait(GRACE_SECONDS):  # the main thread unwound: its own message and exit code
+                return
+            remove_active_temporaries()
+            what = "terminated" if wanted[0] == signal.SIGTERM else "interrupted"
+            os.write(2, f"manifill: {what} inside a solver's call that cannot be interrupted; stopped it, no "
+                        f"output was left half-written\n".encode())
+            os._exit(143 if wanted[0] == signal.SIGTERM else 130)
+
+    def stop(self):
+        self._done.set()
+        signal.set_wakeup_fd(self._previous)
+        try:
+            os.write(self._write, b"\0")  # wakes the thread, which sees it is done
+        except OSError:
+            pass
+        self._thread.join(timeout=1.0)
+        for fd in (self._read, self._write):
+            os.close(fd)

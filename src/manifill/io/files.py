@@ -23,7 +23,7 @@ from pathlib import Path
 
 from ..errors import ManifillError, ReadError, WriteError
 
-__all__ = ["atomic_path", "remove_dead_temporaries", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles",
+__all__ = ["atomic_path", "remove_dead_temporaries", "remove_active_temporaries", "ACTIVE", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles",
            "KILL_ONCE_ENV", "kill_once_for_tests"]
 
 #: loggers of the parsers that print their notes through handlers of their own
@@ -249,6 +249,7 @@ def atomic_path(path):
         raise WriteError(f"folder {path.parent} does not exist; create it first or choose another output path")
     remove_dead_temporaries(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    ACTIVE.add(tmp)
     try:
         try:
             yield tmp
@@ -262,8 +263,25 @@ def atomic_path(path):
             raise WriteError(f"{path.name}: could not replace the file ({exc.strerror or exc}); check the "
                              f"folder's permissions and free space") from None
     finally:
+        ACTIVE.discard(tmp)
         if tmp.exists():
             tmp.unlink()
+
+
+#: The temporaries of the writes under way (:func:`atomic_path`), for a process that must stop at once.
+ACTIVE = set()
+
+
+def remove_active_temporaries():
+    """Remove the temporaries of the writes under way: what a process stopped by ``os._exit`` leaves behind."""
+    for tmp in list(ACTIVE):
+        try:
+            if tmp.is_dir() and not tmp.is_symlink():
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 #: TEST ONLY. When this environment variable names a file that does not exist, :func:`atomic_path` creates

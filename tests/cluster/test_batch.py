@@ -235,3 +235,21 @@ def test_an_interrupted_batch_keeps_every_finished_job_in_its_summary(tmp_path, 
     assert written == {"a": "done", "b": "done", "c": "done"}
     again = manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv")
     assert {r["id"] for r in again.rows if r["status"] == "skipped"} == set(written)
+
+
+def test_a_killed_worker_leaves_no_warning_on_the_command_lines_stderr(tmp_path, inputs):
+    # multiprocessing's resource tracker printed "There appear to be 1 leaked semaphore objects" (two lines)
+    import subprocess
+    import sys
+
+    from manifill.io.files import KILL_ONCE_ENV
+
+    (tmp_path / "jobs.csv").write_text("id,mesh,samples,output,method\n"
+                                       f"a,{inputs / 'sphere.ply'},{inputs / 's1.csv'},out/a.vtu,harmonic\n"
+                                       f"b,{inputs / 'sphere.ply'},{inputs / 's2.csv'},out/b.vtu,\n")
+    flag = tmp_path / "killed.flag"
+    proc = subprocess.run([sys.executable, "-m", "manifill", "batch", "jobs.csv", "--workers", "2"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300, env=dict(os.environ, **{KILL_ONCE_ENV: str(flag)}))
+    assert proc.returncode == 0 and flag.exists(), proc.stderr  # a worker was killed, and its job retried
+    assert proc.stderr == ""
+    assert (tmp_path / "out" / "a.vtu").exists() and (tmp_path / "out" / "b.vtu").exists()

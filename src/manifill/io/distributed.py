@@ -16,10 +16,14 @@ module level (:func:`need_distributed`).
 import contextlib
 import logging
 import os
+import sys
 import threading
 import time
 
 from ..errors import OptionError
+
+#: The warning filter handed to multiprocessing's resource tracker (see :func:`local_cluster`).
+QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 
 __all__ = ["IN_FLIGHT", "EXTRA", "SCHEDULER_ENV", "need_distributed", "local_cluster", "dask_client", "ordered_map",
            "one_at_a_time"]
@@ -72,6 +76,11 @@ def local_cluster(workers, memory_limit="auto", what="this"):
 
     env = {k: v for k, v in (dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {}).items()
            if k != "MALLOC_TRIM_THRESHOLD_"}
+    # a worker killed mid-job (and restarted by its nanny) leaves a semaphore that multiprocessing's resource
+    # tracker removes at shutdown, with a two-line warning that says nothing to the user: the tracker (started
+    # with this interpreter's -W options) is told to keep quiet about it
+    if QUIET_TRACKER not in sys.warnoptions:
+        sys.warnoptions.append(QUIET_TRACKER)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": env}):
         return distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                         memory_limit=memory_limit, dashboard_address=":0",

@@ -186,3 +186,20 @@ def test_regression_a_full_disk_names_the_file_and_the_cause(tmp_path, monkeypat
                                    tmp_path / "out.npy"))
     assert "out.npy: could not be written (238328 requested and 130544 written: the disk is probably full)" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mask.npy", "v.csv"]
+
+
+def test_regression_a_damaged_header_gives_the_same_message_every_run(tmp_path, capsys):
+    # an NPY header with `'shape': (inf**40,)` said "<ast.BinOp object at 0x7f...>": a new address every run
+    V, F = icosphere(1)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    arr = np.zeros(3, dtype=[("vertex", "i8"), ("value", "f8")])
+    np.save(tmp_path / "s.npy", arr)
+    data = (tmp_path / "s.npy").read_bytes()
+    start = data.index(b"'shape': (") + len(b"'shape': (")
+    end = data.index(b")", start)
+    damaged = data[:start] + b"inf**40," + data[end:]
+    (tmp_path / "s.npy").write_bytes(damaged[:len(data)] if len(damaged) >= len(data) else
+                                     damaged[:start + 8] + b" " * (len(data) - len(damaged)) + damaged[start + 8:])
+    line = assert_usage_error(*run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.npy", "-o",
+                                   tmp_path / "o.vtu"))
+    assert "s.npy" in line and " at 0x" not in line

@@ -127,7 +127,7 @@ def _silent_loggers():
 
 
 def _one_line(exc):
-    text = " ".join(str(exc).split())
+    text = re.sub(r"<([\w.]+) object at 0x[0-9a-fA-F]+>", r"<\1>", " ".join(str(exc).split()))  # no addresses
     text = text[:160] + "..." if len(text) > 160 else text
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 

@@ -76,3 +76,24 @@ def test_bad_max_snap_is_a_usage_error(case, capsys):
     code, out, err = run(capsys, "reconstruct", case["mesh"], case["samples"], "-o", case["tmp"] / "o.ply",
                          "--max-snap", "far")
     assert_usage_error(code, out, err)
+
+
+def test_auto_on_the_command_line_uses_positions_as_the_library_does(tmp_path, capsys):
+    # `--method auto` snapped positions to vertices (and said so) where manifill.reconstruct(method="auto") kept them
+    import meshio
+
+    import manifill
+    from manifill.io import write_mesh
+    from manifill.mesh.shapes import icosphere
+
+    V, F = icosphere(3)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    P = V[F[::41]].mean(axis=1) * 1.003  # inside faces, a little off the surface
+    vals = np.sin(3 * P[:, 0]) + P[:, 2]
+    np.savetxt(tmp_path / "s.csv", np.column_stack([P, vals]), delimiter=",", header="x,y,z,t", comments="")
+    code, out, err = run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.csv", "-o", tmp_path / "o.vtu",
+                         "--method", "auto")
+    assert code == 0, err
+    assert "located" in out and "snapped" not in out
+    want = manifill.reconstruct(V, F, P, vals, method="auto").values
+    np.testing.assert_allclose(meshio.read(tmp_path / "o.vtu").point_data["t"], want, rtol=0, atol=1e-10)

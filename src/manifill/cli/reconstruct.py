@@ -52,7 +52,8 @@ def run(args):
     out = surface_outputs(args, extra=SERIES_OUTPUTS)
     options = options_of(args)
     # the methods that take points constrain positions exactly where they are, the others use the nearest vertices
-    exact = method_of(options.method).at_points and not method_of(options.method).delegates
+    # (auto hands the positions on: its choice uses them as the library's auto does)
+    exact = method_of(options.method).at_points
     if is_series(args.samples, out, args.chunk):
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "

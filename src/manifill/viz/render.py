@@ -75,7 +75,7 @@ def _look(look, options, function):
 
 
 def nice_range(values):
-    """``((lo, hi), labels)``: the values' range widened to 4 or 5 round steps (1, 2, 2.5 or 5 times a power of
+    """``((lo, hi), labels)``: the values' range widened to 4-6 round steps (1, 2, 2.5 or 5 times a power of
     ten; the least widening wins), so that every tick of a colour bar is a round number.
 
     Examples
@@ -95,7 +95,7 @@ def nice_range(values):
     if not hi > lo:
         return (lo, hi), 2
     best = None
-    for steps in (4, 5):
+    for steps in (4, 5, 6):
         raw = (hi - lo) / steps
         mag = 10.0 ** np.floor(np.log10(raw))
         for m in (1.0, 2.0, 2.5, 5.0, 10.0):

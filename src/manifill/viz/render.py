@@ -141,6 +141,24 @@ def _pv():
     return pv
 
 
+def _bar_text(pl, actors, clim, labels, title):
+    """The bar's ticks and name drawn by hand: VTK's title sat on the middle label and its end labels, centred on
+    the bar's ends, stuck out past them; here the end labels end with the bar (left- and right-aligned)."""
+    for actor in actors:
+        actor.SetDrawTickLabels(False)
+        actor.SetTitle("")
+        actor.SetPosition(0.2, 0.065)
+        actor.SetHeight(0.045)
+    for j, t in enumerate(np.linspace(clim[0], clim[1], labels)):
+        text = pl.add_text(f"{float(f'{t:.10g}'):.6g}", position=(0.2 + 0.6 * j / (labels - 1), 0.02), viewport=True,
+                           font_size=10, color="black")
+        prop = text.GetTextProperty()
+        (prop.SetJustificationToLeft if j == 0 else prop.SetJustificationToRight if j == labels - 1
+         else prop.SetJustificationToCentered)()
+    name = pl.add_text(title, position=(0.5, 0.12), viewport=True, font_size=12, color="black")
+    name.GetTextProperty().SetJustificationToCentered()
+
+
 def _polydata(pv, V, F):
     faces = np.column_stack([np.full(len(F), 3), np.asarray(F, dtype=np.int64)]).ravel()
     return pv.PolyData(np.asarray(V, dtype=np.float64), faces)
@@ -164,13 +182,8 @@ def _add_surface(pl, pv, panel, clim, cmap):
                                      "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
                     **extra)
         new = [key for key in pl.scalar_bars.keys() if key not in before]  # a bar shared with a panel before: none
-        if kind not in ("mask", "category") and new:  # labels under the bar, the name above it (VTK's title sat
-            for key in new:                           # on the middle label)
-                pl.scalar_bars[key].SetTextPositionToPrecedeScalarBar()
-                pl.scalar_bars[key].SetTitle("")
-            text = pl.add_text(panel.get("bar_title", name), position=(0.5, 0.125), viewport=True, font_size=12,
-                               color="black")
-            text.GetTextProperty().SetJustificationToCentered()
+        if kind not in ("mask", "category") and new:  # our own labels under the bar, the name above it
+            _bar_text(pl, [pl.scalar_bars[key] for key in new], clim, labels, panel.get("bar_title", name))
     else:
         pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
     curves = panel.get("curves")

@@ -203,3 +203,13 @@ def test_regression_a_damaged_header_gives_the_same_message_every_run(tmp_path, 
     line = assert_usage_error(*run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.npy", "-o",
                                    tmp_path / "o.vtu"))
     assert "s.npy" in line and " at 0x" not in line
+
+
+def test_regression_only_a_full_disk_becomes_could_not_be_written(tmp_path):
+    # every OSError inside a write turned into "could not be written (...); free some space"
+    from manifill.io.files import atomic_path
+
+    with pytest.raises(PermissionError):
+        with atomic_path(tmp_path / "o.vtu"):
+            raise PermissionError(13, "Permission denied")
+    assert list(tmp_path.iterdir()) == []

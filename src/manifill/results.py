@@ -174,7 +174,7 @@ class Result(ABC):
             what = f"{report['preset']} ({what})"
         head = f"<{type(self).__name__}: {what or 'reconstruction'} on {self._domain()}, {p} field{'s' * (p > 1)}"
         lines = [head]
-        width = max(len(n) for n in names[:REPR_FIELDS])
+        width = max([len(n) for n in names[:REPR_FIELDS]], default=0)
         for j, name in enumerate(names[:REPR_FIELDS]):
             col = X[..., j]
             finite = col[np.isfinite(col)]

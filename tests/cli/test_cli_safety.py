@@ -166,3 +166,34 @@ def test_a_signal_is_honoured_within_seconds_even_inside_a_long_compiled_call(tm
     assert importlib.import_module("manifill.cli.main").GRACE_SECONDS <= 3
     assert waited < 6.0, f"stopped after {waited:.1f} s"  # the call alone runs about 15 s more
     assert sorted(os.listdir(tmp_path)) == ["m.vtu", "s.csv"]
+
+
+SLOW_CLEANUP = """
+import sys
+import time
+import manifill.cli.reconstruct as rc
+from manifill.cli import main
+
+
+def slow(*args, **kwargs):
+    try:
+        time.sleep(30)  # interruptible: the main thread's own handler runs at once
+    finally:
+        time.sleep(4.5)  # a clean-up longer than the watchdog's grace: it must be left to finish
+
+
+rc.reconstruct = slow
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_the_watchdog_leaves_a_long_clean_up_to_finish(tmp_path):
+    V, F = icosphere(2)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    (tmp_path / "s.csv").write_text("vertex,t\n" + "".join(f"{i},{float(V[i, 2])!r}\n" for i in range(0, 162, 9)))
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_CLEANUP, "reconstruct", "m.vtu", "s.csv", "-o", "o.vtu"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and err == "manifill: terminated; no output was left half-written\n", err

@@ -133,16 +133,32 @@ def _terminate_as_interrupt():
         yield
         return
 
+    handled = threading.Event()  # the main thread has begun to unwind: the watchdog stands down
+
     def raise_terminated(signum, frame):
+        handled.set()
         raise _Terminated()
 
+    def raise_interrupt(signum, frame):
+        handled.set()
+        raise KeyboardInterrupt()
+
     previous = signal.signal(signal.SIGTERM, raise_terminated)
-    watchdog = _Watchdog()
+    previous_int = signal.getsignal(signal.SIGINT)
+    if previous_int is signal.default_int_handler:  # left alone when ignored (a background job) or a host's own
+        signal.signal(signal.SIGINT, raise_interrupt)
+    try:
+        watchdog = _Watchdog(handled)
+    except (OSError, RuntimeError, ValueError):  # no pipe or thread to spare: signals as Python handles them
+        watchdog = None
     try:
         yield
     finally:
-        watchdog.stop()
+        if watchdog is not None:
+            watchdog.stop()
         signal.signal(signal.SIGTERM, previous)
+        if previous_int is signal.default_int_handler:
+            signal.signal(signal.SIGINT, previous_int)
 
 
 #: Seconds a signal may wait for the main thread (busy in one long call of a compiled solver) before the
@@ -154,10 +170,12 @@ class _Watchdog:
     """Honours SIGTERM and Ctrl-C within :data:`GRACE_SECONDS` even while the main thread is inside one long
     compiled call (a factorisation, a dense eigen-solve: Python runs its handlers only between calls, and a gp
     took 43 s to stop): the signal's number arrives on a pipe (``signal.set_wakeup_fd``) that a thread watches;
-    if the main thread has not unwound by then, the thread removes the temporaries of the writes under way, says
-    so in one line and ends the process (exit 143 or 130)."""
+    if the main thread has not begun to unwind by then (its handler sets ``handled``; a long clean-up after that
+    is left to run), the thread removes the temporaries of the writes under way, says so in one line and ends
+    the process (exit 143 or 130)."""
 
-    def __init__(self):
+    def __init__(self, handled):
+        self._handled = handled
         self._read, self._write = os.pipe()
         os.set_blocking(self._write, False)
         self._done = threading.Event()
@@ -174,7 +192,7 @@ class _Watchdog:
             wanted = [s for s in got if s in (signal.SIGTERM, signal.SIGINT)]
             if self._done.is_set() or not wanted:
                 continue
-            if self._done.wait(GRACE_SECONDS):  # the main thread unwound: its own message and exit code
+            if self._handled.wait(GRACE_SECONDS) or self._done.is_set():  # the main thread unwinds: its own way
                 return
             remove_active_temporaries()
             what = "terminated" if wanted[0] == signal.SIGTERM else "interrupted"

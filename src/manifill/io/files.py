@@ -182,6 +182,12 @@ def no_triangles(path, kinds):
                     f"pass a surface mesh")
 
 
+def _out_of_space(exc):
+    """Whether an OSError means the disk (or the quota) is full: numpy's short write has no errno."""
+    text = exc.strerror or str(exc)
+    return exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG) or ("requested" in text and "written" in text)
+
+
 def _cause(exc):
     """An OSError in a few words: the system's reason, or numpy's short write read as a full disk."""
     if exc.errno == errno.ENOSPC:
@@ -196,7 +202,7 @@ def remove_dead_temporaries(path):
     """Remove the hidden temporaries ``.<name>.<pid>.tmp<suffix>`` beside ``path`` whose process is gone (a run
     killed between writing and renaming leaves one); a live process's are left alone. Returns what was removed."""
     path = Path(path)
-    pattern = re.compile(r"^\." + re.escape(path.name) + r"\.(\d+)\.tmp")
+    pattern = re.compile(r"^\." + re.escape(path.name) + r"\.(\d+)\.\w+")
     removed = []
     try:
         entries = list(path.parent.iterdir())
@@ -253,7 +259,9 @@ def atomic_path(path):
     try:
         try:
             yield tmp
-        except OSError as exc:  # a full disk, a quota, a vanished folder: the file and the cause, in one line
+        except OSError as exc:  # a full disk or a quota: the file and the cause, in one line (others as they are)
+            if not _out_of_space(exc):
+                raise
             raise WriteError(f"{path.name}: could not be written ({_cause(exc)}); free some space or write it "
                              f"elsewhere") from None
         kill_once_for_tests()

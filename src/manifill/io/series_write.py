@@ -52,7 +52,7 @@ import numpy as np
 
 from ..errors import WriteError
 from .field_names import check_field_names
-from .files import suffix
+from .files import ACTIVE, remove_dead_temporaries, suffix
 from .series import SERIES_FORMATS, need_h5py
 from .vtkxml_write import write_unstructured
 
@@ -67,11 +67,15 @@ class _Temp:
     def __init__(self, final, tag="tmp"):
         self.final = Path(final)
         self.path = self.final.with_name(f".{self.final.name}.{os.getpid()}.{tag}{self.final.suffix}")
+        remove_dead_temporaries(self.final)  # a killed run's, left beside the same output
+        ACTIVE.add(self.path)  # a process stopped at once (the CLI's watchdog) removes it
 
     def commit(self):
+        ACTIVE.discard(self.path)
         os.replace(self.path, self.final)
 
     def discard(self):
+        ACTIVE.discard(self.path)
         if self.path.is_dir() and not self.path.is_symlink():
             shutil.rmtree(self.path, ignore_errors=True)
         elif self.path.exists() or self.path.is_symlink():

@@ -18,8 +18,6 @@ import contextlib
 import csv
 import io
 import os
-import re
-import shutil
 import threading
 import time
 from dataclasses import dataclass
@@ -30,7 +28,7 @@ from ..errors import ManifillError, OptionError
 from ..io import read_mesh_file
 from ..io.distributed import SCHEDULER_ENV, dask_client
 from ..io.distributed import need_distributed as need
-from ..io.files import KILL_ONCE_ENV, atomic_path
+from ..io.files import KILL_ONCE_ENV, atomic_path, remove_temporaries
 from ..io.registry import reading_once
 from ..io.samples import read_sample_table
 from ..io.stream import chunk_size
@@ -38,7 +36,7 @@ from ..memory import LIMIT_ENV, human
 from .hashing import job_hash
 from .manifest import jobs_from
 
-__all__ = ["batch", "BatchResult", "need_distributed", "run_job", "job_memory", "remove_stale", "read_summary",
+__all__ = ["batch", "BatchResult", "need_distributed", "run_job", "job_memory", "read_summary",
            "SUMMARY_COLUMNS", "SCHEDULER_ENV", "SUMMARY_SECONDS", "BYTES_PER_VERTEX", "BYTES_PER_VALUE"]
 
 #: The summary's columns, one row per job in the manifest's order.
@@ -264,35 +262,6 @@ def write_summary(path, rows):
                 w.writerow(r)
 
 
-def remove_stale(output):
-    """Remove the hidden temporary files an interrupted write of ``output`` left beside it.
-
-    manifill writes ``.<name>.<pid>.<tag><suffix>`` beside ``<name>`` and renames it when
-    complete (:func:`manifill.io.files.atomic_path`); a process killed in between leaves it.
-    A ``.pvd`` series also has its folder ``<stem>/``, written the same way.
-
-    Returns
-    -------
-    list of Path
-        What was removed.
-    """
-    output = Path(output)
-    names = [output.name] + ([output.stem] if output.suffix.lower() == ".pvd" else [])
-    removed = []
-    if not output.parent.is_dir():
-        return removed
-    for name in names:
-        pattern = re.compile(r"^\." + re.escape(name) + r"\.\d+\.\w+")
-        for p in output.parent.iterdir():
-            if pattern.match(p.name):
-                if p.is_dir() and not p.is_symlink():
-                    shutil.rmtree(p, ignore_errors=True)
-                else:
-                    p.unlink(missing_ok=True)
-                removed.append(p)
-    return removed
-
-
 def job_memory(job):
     """Estimated peak memory of a ``reconstruct`` job in bytes (``None`` for a ``volume`` job).
 
@@ -383,7 +352,7 @@ def _run_job(job, digest):
     t0 = time.perf_counter()
     address, limit = _worker()
     for out in job.outputs():
-        remove_stale(out)
+        remove_temporaries(out, dead_only=False)  # this job is the output's only writer
     try:
         need = job_memory(job)
     except ManifillError as exc:

@@ -23,8 +23,8 @@ from pathlib import Path
 
 from ..errors import ManifillError, ReadError, WriteError
 
-__all__ = ["atomic_path", "remove_dead_temporaries", "remove_active_temporaries", "ACTIVE", "suffix", "reading", "quiet", "check_count", "check_input_file", "no_triangles",
-           "KILL_ONCE_ENV", "kill_once_for_tests"]
+__all__ = ["atomic_path", "remove_temporaries", "remove_active_temporaries", "ACTIVE", "suffix", "reading", "quiet",
+           "check_count", "check_input_file", "no_triangles", "KILL_ONCE_ENV", "kill_once_for_tests"]
 
 #: loggers of the parsers that print their notes through handlers of their own
 _PARSER_LOGGERS = ("nibabel",)
@@ -182,51 +182,59 @@ def no_triangles(path, kinds):
                     f"pass a surface mesh")
 
 
-def _out_of_space(exc):
-    """Whether an OSError means the disk (or the quota) is full: numpy's short write has no errno."""
-    text = exc.strerror or str(exc)
-    return exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG) or ("requested" in text and "written" in text)
-
-
-def _cause(exc):
-    """An OSError in a few words: the system's reason, or numpy's short write read as a full disk."""
+def _space_cause(exc):
+    """The cause of an OSError in a few words when it means the disk (or the quota) is full, else None (numpy's
+    short write, "N requested and M written", has no errno)."""
     if exc.errno == errno.ENOSPC:
         return "no space left on the device"
     if exc.errno == errno.EDQUOT:
         return "disk quota exceeded"
     text = exc.strerror or str(exc)
-    return f"{text}: the disk is probably full" if "written" in text and "requested" in text else text
+    if exc.errno == errno.EFBIG:
+        return text
+    return f"{text}: the disk is probably full" if "requested" in text and "written" in text else None
 
 
-def remove_dead_temporaries(path):
-    """Remove the hidden temporaries ``.<name>.<pid>.tmp<suffix>`` beside ``path`` whose process is gone (a run
-    killed between writing and renaming leaves one); a live process's are left alone. Returns what was removed."""
-    path = Path(path)
-    pattern = re.compile(r"^\." + re.escape(path.name) + r"\.(\d+)\.\w+")
-    removed = []
+def _remove(p):
+    """Remove a file or a folder (not following a symlink to one); say nothing if it cannot."""
     try:
-        entries = list(path.parent.iterdir())
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
     except OSError:
-        return removed
+        pass
+
+
+def _alive(pid):
+    """Whether process ``pid`` runs on this host (or cannot be told: then it counts as alive)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):
+        return True
+    return True
+
+
+def remove_temporaries(output, *, dead_only=True):
+    """Remove the hidden temporaries ``.<name>.<pid>.<tag><suffix>`` that interrupted writes of ``output`` left
+    beside it (and, for a ``.pvd`` series, of its folder ``<stem>/``): with ``dead_only``, only those of processes
+    no longer running here (a live writer's are left alone). Returns what was removed."""
+    output = Path(output)
+    names = [output.name] + ([output.stem] if output.suffix.lower() == ".pvd" else [])
+    patterns = [re.compile(r"^\." + re.escape(name) + r"\.(\d+)\.\w+") for name in names]
+    try:
+        entries = list(output.parent.iterdir())
+    except OSError:
+        return []
+    removed = []
     for p in entries:
-        m = pattern.match(p.name)
-        if not m or int(m.group(1)) == os.getpid():
+        m = next((m for m in (pat.match(p.name) for pat in patterns) if m), None)
+        if m is None or int(m.group(1)) == os.getpid() or (dead_only and _alive(int(m.group(1)))):
             continue
-        try:
-            os.kill(int(m.group(1)), 0)
-            continue  # alive (or another user's): not ours to remove
-        except ProcessLookupError:
-            pass
-        except (PermissionError, OverflowError, OSError):
-            continue
-        try:
-            if p.is_dir() and not p.is_symlink():
-                shutil.rmtree(p, ignore_errors=True)
-            else:
-                p.unlink(missing_ok=True)
-            removed.append(p)
-        except OSError:
-            pass
+        _remove(p)
+        removed.append(p)
     return removed
 
 
@@ -253,16 +261,17 @@ def atomic_path(path):
     path = Path(path)
     if not path.parent.is_dir():
         raise WriteError(f"folder {path.parent} does not exist; create it first or choose another output path")
-    remove_dead_temporaries(path)
+    remove_temporaries(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
     ACTIVE.add(tmp)
     try:
         try:
             yield tmp
         except OSError as exc:  # a full disk or a quota: the file and the cause, in one line (others as they are)
-            if not _out_of_space(exc):
+            cause = _space_cause(exc)
+            if cause is None:
                 raise
-            raise WriteError(f"{path.name}: could not be written ({_cause(exc)}); free some space or write it "
+            raise WriteError(f"{path.name}: could not be written ({cause}); free some space or write it "
                              f"elsewhere") from None
         kill_once_for_tests()
         try:
@@ -283,13 +292,7 @@ ACTIVE = set()
 def remove_active_temporaries():
     """Remove the temporaries of the writes under way: what a process stopped by ``os._exit`` leaves behind."""
     for tmp in list(ACTIVE):
-        try:
-            if tmp.is_dir() and not tmp.is_symlink():
-                shutil.rmtree(tmp, ignore_errors=True)
-            else:
-                tmp.unlink(missing_ok=True)
-        except OSError:
-            pass
+        _remove(tmp)
 
 
 #: TEST ONLY. When this environment variable names a file that does not exist, :func:`atomic_path` creates

@@ -52,7 +52,7 @@ import numpy as np
 
 from ..errors import WriteError
 from .field_names import check_field_names
-from .files import ACTIVE, remove_dead_temporaries, suffix
+from .files import ACTIVE, remove_temporaries, suffix
 from .series import SERIES_FORMATS, need_h5py
 from .vtkxml_write import write_unstructured
 
@@ -67,7 +67,7 @@ class _Temp:
     def __init__(self, final, tag="tmp"):
         self.final = Path(final)
         self.path = self.final.with_name(f".{self.final.name}.{os.getpid()}.{tag}{self.final.suffix}")
-        remove_dead_temporaries(self.final)  # a killed run's, left beside the same output
+        remove_temporaries(self.final)  # a killed run's, left beside the same output
         ACTIVE.add(self.path)  # a process stopped at once (the CLI's watchdog) removes it
 
     def commit(self):

@@ -5,6 +5,7 @@ name of what factorised; :class:`manifill.linalg.backends.DirectSolver` uses it.
 Pardiso comes from the optional ``pypardiso`` (the ``[fast]`` extra, pip only, x86-64).
 """
 
+import contextlib
 import importlib.metadata
 import os
 
@@ -84,32 +85,33 @@ def _mkl_rt():
     return next((path for path in found if os.path.exists(path)), None)
 
 
-def _pypardiso():
-    """``import pypardiso`` with MKL's library named for it: its import builds a solver, which searches its
-    install tree for the library when ``find_library`` fails (0.24 s, measured, of the import's 0.5 s)."""
+@contextlib.contextmanager
+def _mkl_named():
+    """``PYPARDISO_MKL_RT`` set to MKL's library while pypardiso looks for it (unless the user set it): its import
+    and every new solver search the install tree when ``find_library`` fails (0.24 s each, measured)."""
     if not _MKL_RT:
         _MKL_RT.append(_mkl_rt())
-    before = os.environ.get("PYPARDISO_MKL_RT")
-    if _MKL_RT[0] and before is None:
+    given = os.environ.get("PYPARDISO_MKL_RT") is not None
+    if _MKL_RT[0] and not given:
         os.environ["PYPARDISO_MKL_RT"] = _MKL_RT[0]
     try:
-        import pypardiso
+        yield
     finally:
-        if before is None:
+        if not given:
             os.environ.pop("PYPARDISO_MKL_RT", None)
+
+
+def _pypardiso():
+    """``import pypardiso``, with MKL's library named for it (its import builds a solver)."""
+    with _mkl_named():
+        import pypardiso
     return pypardiso
 
 
 def _pardiso_solver(pypardiso):
-    """A new ``PyPardisoSolver``, with MKL's library named (as for the import)."""
-    before = os.environ.get("PYPARDISO_MKL_RT")
-    if _MKL_RT and _MKL_RT[0] and before is None:
-        os.environ["PYPARDISO_MKL_RT"] = _MKL_RT[0]
-    try:
+    """A new ``PyPardisoSolver``, with MKL's library named."""
+    with _mkl_named():
         return pypardiso.PyPardisoSolver()
-    finally:
-        if before is None:
-            os.environ.pop("PYPARDISO_MKL_RT", None)
 
 
 def factorise(A, factoriser=None, spd=False):

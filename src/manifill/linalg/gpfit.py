@@ -109,6 +109,8 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
     """
     scale = float(np.mean(lik.lam))
     lo, hi = math.log(scale * 1e-8), math.log(scale * 10.0)
+    if noise2 is not None and not fit_noise and not np.any(np.asarray(noise2)[cols]):
+        noise2 = None  # no noise: the scale in closed form, whatever the units of R
     if s2 is None and (noise2 is None or fit_noise):  # scale profiled; the noise ratio shared by cols
         if not fit_noise:
             out = [lik.profiled(0.0, j) for j in cols]
@@ -126,8 +128,9 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
     for j in cols:
         if s2 is None:  # absolute noise given: search the scale
             n2 = float(noise2[j])
-            ls, v = bounded_search(lambda x, n2=n2, j=j: lik.absolute(math.exp(x), n2, j), math.log(1e-12),
-                                   math.log(1e12))
+            # the data are standardised, so s^2 R is near 1 at the optimum: the search is in the units of R
+            ls, v = bounded_search(lambda x, n2=n2, j=j: lik.absolute(math.exp(x), n2, j),
+                                   math.log(1e-12 / scale), math.log(1e12 / scale))
             params.append((math.exp(ls), n2))
         elif fit_noise:  # scale given: search the noise
             sj = float(s2[j])

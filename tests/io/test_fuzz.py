@@ -507,6 +507,8 @@ def _outcome(reader, path):
                 return "FAIL", f"{cls} without the file name: {msg}"
             if "memory" in msg.lower() and "damaged" not in msg.lower():
                 return "FAIL", f"{cls} speaks of memory for a small file: {msg}"
+            if VAGUE.search(msg):
+                return "FAIL", f"{cls} names no cause, or only Python's: {msg}"
         except Exception as exc:  # noqa: BLE001 - what the fuzzing looks for
             return "FAIL", f"{type(exc).__name__}: {exc}"[:300]
         else:
@@ -522,6 +524,10 @@ def _outcome(reader, path):
         return "FAIL", f"warning escaped: {caught[0].category.__name__}: {caught[0].message}"
     return cls, msg
 
+
+#: a message naming no cause ('(ReadError)'), or Python's words instead of the file's
+VAGUE = re.compile(r"\((?:\w+Error|\w+Error, no reason given)\)|UnicodeDecodeError|could not convert string|"
+                   r"invalid literal for|list index out of range|cannot reshape|codec can't")
 
 _serial = count()
 

@@ -126,10 +126,51 @@ def _silent_loggers():
             lg.setLevel(level)
 
 
+#: a parser's usual complaints, said in the terms of the file
+_PLAIN = [
+    (re.compile(r"could not convert string to float: (.*)"), r"\1 is not a number"),
+    (re.compile(r"invalid literal for int\(\) with base \d+: (.*)"), r"\1 is not an integer"),
+    (re.compile(r"string or file could not be read to its end due to unmatched data"),
+     "text where numbers belong, or fewer numbers than its counts say"),
+    (re.compile(r"cannot reshape array of size (\d+) into shape \(?(\d+), ?(\d+)\)?"),
+     r"\1 numbers where its counts ask for \2 rows of \3"),
+    (re.compile(r"cannot reshape array of size (\d+) into shape (\(.*\))"),
+     r"\1 numbers where its header gives the shape \2"),
+    (re.compile(r"'[\w-]+' codec can't decode bytes? (?:0x[0-9a-f]+ )?in position (\d+).*"),
+     r"bytes that are not text at offset \1"),
+    (re.compile(r"could not convert string (.*) to \w+ at row (\d+), column (\d+)\.?"),
+     r"\1 (row \2, column \3) is not a number"),
+    (re.compile(r"Some errors were detected ! Line #(\d+) \(got (\d+) columns instead of (\d+)\).*"),
+     r"data line \1 holds \2 values where \3 belong"),
+    (re.compile(r"buffer size must be a multiple of element size"), "binary data that ends inside a value"),
+    (re.compile(r"too many values to unpack \(expected (\d+)\)"), r"a line with more than the \1 values expected"),
+    (re.compile(r"list index out of range"), "a line with fewer items than it needs"),
+    (re.compile(r"Python int(?:eger)? (-?\d+) out of bounds for (\w+)"), r"the value \1, which does not fit its type \2"),
+    (re.compile(r"Python int too large to convert to C \w+"), "a number too large for its type"),
+    (re.compile(r"setting an array element with a sequence.*"), "lines of different lengths where they should match"),
+    (re.compile(r"no field of name (.*)"), r"no property named \1"),
+]
+
+
 def _one_line(exc):
     text = re.sub(r"<([\w.]+) object at 0x[0-9a-fA-F]+>", r"<\1>", " ".join(str(exc).split()))  # no addresses
+    for pattern, plain in _PLAIN:
+        if pattern.fullmatch(text):
+            return pattern.sub(plain, text)[:200]
+    if isinstance(exc, KeyError) and text:
+        return f"the unknown name {text[:60]}"
+    if type(exc).__name__ == "ReadError" and text:  # the parser's own words
+        return text[:160]
     text = text[:160] + "..." if len(text) > 160 else text
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    if text:
+        return f"{type(exc).__name__}: {text}"
+    return _SILENT.get(type(exc).__name__, f"{type(exc).__name__}, no reason given")
+
+
+#: what a parser's exception without a message means
+_SILENT = {"EOFError": "it ends early, truncated", "AssertionError": "a line its reader cannot parse",
+           "ReadError": "its reader stopped at something it cannot parse, and gave no reason",
+           "StopIteration": "it ends early, truncated"}
 
 
 def check_count(count, path, what, *, bytes_each, start=0):

@@ -47,6 +47,8 @@ def read_meshio(path, fmt):
         _check_off_header(path)
     elif ext == ".ply":
         _check_ply_header(path)
+    elif ext == ".stl":
+        _check_stl(path)
     with reading(path, f"{fmt.name} mesh"):
         mesh = getattr(meshio, ext[1:]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
         faces = []
@@ -114,6 +116,12 @@ def _check_ply_header(path):
         raise ReadError(f"{path.name}: not a readable PLY mesh (no 'end_header' line closes its header); the file "
                         f"is truncated or damaged, check it")
     lines = [line.split() for line in head[:end.start()].decode("latin-1").splitlines()]
+    fmt = next((w for w in lines[1:] if w and w[0] != "comment"), None)  # the line after 'ply'
+    if fmt is None or fmt[:1] != ["format"] or fmt[1:] not in (["ascii", "1.0"], ["binary_little_endian", "1.0"],
+                                      ["binary_big_endian", "1.0"]):
+        said = "nothing" if fmt is None else f"the line {' '.join(fmt)[:60]!r}"
+        raise ReadError(f"{path.name}: not a readable PLY mesh ({said} after 'ply', where 'format ascii 1.0' "
+                        f"or 'format binary_little_endian 1.0' belongs); the file is damaged, check it")
     binary = any(w[:1] == ["format"] and len(w) > 1 and w[1].startswith("binary") for w in lines)
     elements = []  # [name, count, fewest bytes of one]
     for w in lines:
@@ -127,6 +135,79 @@ def _check_ply_header(path):
             elements[-1][2] += _PLY_SIZES.get(kind, 1) if binary else 2
     for name, n, each in elements:
         check_count(n, path, f"'{name}' elements", bytes_each=max(each, 1), start=end.end() + 1)
+
+
+def _check_stl(path):
+    """Say what is wrong with an STL file that is neither binary of the size its count gives nor ASCII text.
+
+    meshio reads a file as binary when ``84 + 50 * count`` bytes match its size, as ASCII otherwise (its first
+    line skipped, whatever it says): each line of an ASCII file is checked here, with its number in the message.
+    """
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(84)
+            if size >= 84 and 84 + 50 * int.from_bytes(head[80:84], "little") == size:
+                return  # binary, its count matching its size
+            start = (head + fh.read(1024)).removeprefix(b"\xef\xbb\xbf")  # a text editor's byte-order mark
+            if not (start.lstrip()[:5].lower() == b"solid" or start.isascii() and b"facet" in start):
+                count = int.from_bytes(head[80:84], "little") if size >= 84 else None
+                said = "" if count is None else (f": its header gives {count} triangles, {84 + 50 * count} bytes, "
+                                                  f"and the file has {size}")
+                raise ReadError(f"{path.name}: not a readable STL mesh (neither ASCII, which starts with "
+                                f"'solid', nor binary{said}); the file is truncated or damaged, check it")
+            fh.seek(0)
+            _check_ascii_stl(fh, path.name)
+    except OSError as exc:
+        raise ReadError(f"{path.name}: could not read ({exc})") from None
+
+
+def _check_ascii_stl(fh, name):
+    """Each line of an ASCII STL, and each facet's three vertices, checked (the message names the line)."""
+    facet, corners, inside = None, 3, False  # the line of the current facet, its vertices, not yet ended
+    for number, line in enumerate(fh, 1):
+        problem = _stl_line_problem(line, number == 1)
+        word = line.split()[:1]
+        if not problem and word in ([b"facet"], [b"endsolid"]):
+            if corners != 3:
+                problem = f"{word[0].decode()!r} after {corners} vertices of " + \
+                    (f"the facet of line {facet}; 3 belong" if facet else "no facet")
+            facet, corners = (number, 0) if word == [b"facet"] else (None, 3)
+        corners += word == [b"vertex"]
+        inside = (inside or word == [b"facet"]) and word != [b"endfacet"]
+        if problem:
+            raise ReadError(f"{name}: not a readable STL mesh (an ASCII STL, 'solid' first, whose line {number} "
+                            f"holds {problem}); the file is damaged, check it")
+    if inside:
+        raise ReadError(f"{name}: not a readable STL mesh (an ASCII STL that ends inside the facet of line "
+                        f"{facet}, after {corners} of its vertices); the file is truncated, check it")
+
+
+_STL_WORDS = {b"solid", b"endsolid", b"outer", b"endloop", b"endfacet"}
+
+
+def _stl_line_problem(line, first):
+    """What is wrong with one line of an ASCII STL, or None (the first line names the solid: anything goes)."""
+    if first:
+        return None
+    try:
+        line.decode("ascii")
+    except UnicodeDecodeError:
+        return "bytes that are not text"
+    w = line.split()
+    if not w or w[0] in _STL_WORDS:
+        return None
+    numbers = w[1:] if w[0] == b"vertex" else (w[2:] if w[:2] == [b"facet", b"normal"] else None)
+    if numbers is None:
+        return f"{w[0].decode()[:20]!r}, not an STL keyword"
+    if len(numbers) != 3:
+        return f"{len(numbers)} numbers where 3 belong"
+    for x in numbers:
+        try:
+            float(x)
+        except ValueError:
+            return f"{x.decode()[:20]!r}, not a number"
+    return None
 
 
 def write_meshio(path, V, cells, point_data, fmt):

@@ -32,7 +32,7 @@ from .meshio_files import read_meshio, write_meshio
 from .neuro import read_freesurfer_surface, read_gifti, sniff
 from .vtklegacy_read import read_legacy
 from .vtklegacy_write import write_legacy
-from .vtkxml_read import read_polydata
+from .vtkxml_read import read_polydata, read_unstructured
 from .vtkxml_write import write_polydata, write_unstructured
 
 __all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh", "read_mesh_file",
@@ -74,7 +74,7 @@ class MeshFormat:
 
 
 MESH_FORMATS = {
-    ".vtu": MeshFormat("VTU", "meshio", True, True, ("meshio", "pyvista")),
+    ".vtu": MeshFormat("VTU", "vtu", True, True, ("meshio", "pyvista")),
     ".vtp": MeshFormat("VTP", "vtkxml", True, True, ("pyvista",)),
     ".vtk": MeshFormat("legacy VTK", "legacy", True, True, ("meshio", "pyvista")),
     ".ply": MeshFormat("PLY", "meshio", True, True, ("meshio",)),
@@ -212,6 +212,8 @@ def _read_mesh_file(path, fmt):
         V, F, point_data = read_meshio(path, fmt)
     elif fmt.reader == "vtkxml":
         V, F, point_data = read_polydata(path)
+    elif fmt.reader == "vtu":
+        V, F, point_data = read_unstructured(path)
     elif fmt.reader == "legacy":
         V, cells, point_data = read_legacy(path)
         F = cells.get("triangle")

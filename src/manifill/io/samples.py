@@ -243,7 +243,10 @@ def _read_csv(path):
                 if r and any(c.strip() for c in r):
                     rows.append(r)
                     lineno.append(reader.line_num)
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+    except UnicodeDecodeError as exc:
+        raise ReadError(f"{path.name}: could not read as CSV (byte 0x{exc.object[exc.start]:02x}, which is not "
+                        f"UTF-8 text); save it as UTF-8 text") from None
+    except (OSError, csv.Error) as exc:
         raise ReadError(f"{path.name}: could not read as CSV ({exc}); save it as UTF-8 text") from None
     if not rows:
         raise ReadError(f"{path.name}: empty file; expected a header and one row per sample")

@@ -1,4 +1,5 @@
-"""Reading VTK XML files: PolyData (``.vtp``) as triangles and ImageData (``.vti``) as voxel arrays.
+"""Reading VTK XML files: PolyData (``.vtp``) and UnstructuredGrid (``.vtu``) as triangles, ImageData
+(``.vti``) as voxel arrays.
 
 Every encoding VTK, ParaView and pyvista write reads (the decoder is
 :class:`manifill.io.vtkxml_decode.VtkXmlDocument`), over one or several
@@ -12,7 +13,7 @@ from ..errors import ReadError
 from ..tolerances import TOL
 from .vtkxml_decode import MAX_COUNT, VtkXmlDocument, guarded
 
-__all__ = ["read_polydata", "read_imagedata"]
+__all__ = ["read_polydata", "read_unstructured", "read_imagedata"]
 
 
 def _merge(doc, pieces, label):
@@ -129,35 +130,125 @@ def read_polydata(path):
 
 def _read_polydata(path):
     doc = VtkXmlDocument(path, "PolyData", "VTP")
-    Vs, Fs, fields, base = [], [], [], 0
-    for piece in doc.body.findall("Piece"):
-        n = doc.count(piece, "NumberOfPoints", 0)
-        pts = piece.find("Points")
-        das = [] if pts is None else pts.findall("DataArray")
-        if not das:
-            if n:
-                raise doc.fail(f"Piece claims {n} points but has no <Points> array; the file is damaged")
-            V = np.zeros((0, 3))
-        else:
-            values, p, _ = doc.array(das[0], "Points")
-            if p not in (2, 3):
-                raise doc.fail(f"Points have {p} components; pass 2-D or 3-D points")
-            doc.check_size(values, n, p, "the Points array")
-            V = values.reshape(n, p).astype(np.float64)
-            if p == 2:
-                V = np.column_stack([V, np.zeros(n)])
-        fields.append((n, doc.point_data(piece, n)))
-        tris = [_fan(*_cells(doc, piece, "Polys", n)), _strips(*_cells(doc, piece, "Strips", n))]
-        Vs.append(V)
-        Fs.extend(t + base for t in tris)
-        base += n
-    F = np.concatenate(Fs).astype(np.int64) if Fs else np.zeros((0, 3), np.int64)
+
+    def triangles(piece, n):
+        return [_fan(*_cells(doc, piece, "Polys", n)), _strips(*_cells(doc, piece, "Strips", n))]
+
+    V, F, data = _read_pieces(doc, triangles)
     if not len(F):
         raise doc.fail("holds no triangles (no polygon of 3 or more vertices, no triangle strip); "
                        "pass a surface mesh")
+    return V, F, data
+
+
+def _points(doc, piece, n):
+    """The ``(n, 3)`` points of one piece (2-component points get ``z = 0``)."""
+    pts = piece.find("Points")
+    das = [] if pts is None else pts.findall("DataArray")
+    if not das:
+        if n:
+            raise doc.fail(f"Piece claims {n} points but has no <Points> array; the file is damaged")
+        return np.zeros((0, 3))
+    values, p, _ = doc.array(das[0], "Points")
+    if p not in (2, 3):
+        raise doc.fail(f"Points have {p} components; pass 2-D or 3-D points")
+    doc.check_size(values, n, p, "the Points array")
+    V = values.reshape(n, p).astype(np.float64)
+    return np.column_stack([V, np.zeros(n)]) if p == 2 else V
+
+
+def _read_pieces(doc, triangles):
+    """``(V, F, point fields)`` of every piece, ``triangles(piece, n)`` giving each piece's triangle arrays."""
+    Vs, Fs, fields, base = [], [], [], 0
+    for piece in doc.body.findall("Piece"):
+        n = doc.count(piece, "NumberOfPoints", 0)
+        Vs.append(_points(doc, piece, n))
+        fields.append((n, doc.point_data(piece, n)))
+        Fs.extend(t + base for t in triangles(piece, n))
+        base += n
+    F = np.concatenate(Fs).astype(np.int64) if Fs else np.zeros((0, 3), np.int64)
     data = _merge(doc, fields, "point fields")
     data = {k: v[:, 0] if v.shape[1] == 1 else v for k, v in data.items()}
-    return np.concatenate(Vs), F, data
+    return (np.concatenate(Vs) if Vs else np.zeros((0, 3))), F, data
+
+
+#: VTK cell types read as surface cells: triangle, triangle strip, polygon, pixel, quad
+_VTK_TRIANGLE, _VTK_STRIP, _VTK_POLYGON, _VTK_PIXEL, _VTK_QUAD = 5, 6, 7, 8, 9
+#: names of the other common cell types, for the message of a file without triangles
+_VTK_NAMES = {1: "vertex", 2: "poly_vertex", 3: "line", 4: "poly_line", 10: "tetra", 11: "voxel",
+              12: "hexahedron", 13: "wedge", 14: "pyramid", 22: "triangle6", 24: "tetra10"}
+
+
+def read_unstructured(path):
+    """Read the surface cells, points and named point fields of a VTK UnstructuredGrid file (``.vtu``).
+
+    Encodings and pieces as :func:`read_polydata`. Triangles are kept, quads, pixels and
+    polygons fan-triangulated, triangle strips split; other cells (points, lines,
+    solids, quadratic cells) are ignored.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    V, F, point_data
+        As :func:`read_polydata`.
+
+    Raises
+    ------
+    ReadError
+        A missing or damaged file (the message says what is wrong in it), not an
+        UnstructuredGrid, or no surface cell in it (the message lists the cell types found).
+
+    Examples
+    --------
+    >>> import tempfile, os, meshio
+    >>> f = os.path.join(tempfile.mkdtemp(), "t.vtu")
+    >>> meshio.write_points_cells(f, [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [("quad", [[0, 1, 2, 3]])])
+    >>> read_unstructured(f)[1].tolist()
+    [[0, 1, 2], [0, 2, 3]]
+    """
+    return guarded(lambda: _read_unstructured(path), path, "VTU")
+
+
+def _read_unstructured(path):
+    doc = VtkXmlDocument(path, "UnstructuredGrid", "VTU")
+    found = set()
+
+    def triangles(piece, n):
+        starts, sizes, conn = _cells(doc, piece, "Cells", n)
+        types = _cell_types(doc, piece, starts.size)
+        found.update(types.tolist())
+        pixel = types == _VTK_PIXEL
+        if pixel.any():  # a pixel's points go in rows: (0, 1, 3, 2) is its polygon
+            at = starts[pixel][:, None] + np.array([2, 3])
+            conn = conn.copy()
+            conn[at[:, 0]], conn[at[:, 1]] = conn[at[:, 1]], conn[at[:, 0]]
+        poly = np.isin(types, (_VTK_TRIANGLE, _VTK_POLYGON, _VTK_PIXEL, _VTK_QUAD))
+        strip = types == _VTK_STRIP
+        return [_fan(starts[poly], sizes[poly], conn), _strips(starts[strip], sizes[strip], conn)]
+
+    V, F, data = _read_pieces(doc, triangles)
+    if not len(F):
+        names = sorted(_VTK_NAMES.get(t, f"type {t}") for t in found)
+        raise doc.fail(f"holds no triangles (cells found: {', '.join(names) or 'none'}); pass a surface mesh")
+    return V, F, data
+
+
+def _cell_types(doc, piece, m):
+    """The ``(m,)`` VTK cell types of a piece's ``<Cells>``."""
+    elem = piece.find("Cells")
+    das = {} if elem is None else {da.get("Name"): da for da in elem.findall("DataArray")}
+    if m and "types" not in das:
+        raise doc.fail("<Cells> has no DataArray 'types'; the file is damaged")
+    if not m:
+        return np.zeros(0, np.int64)
+    values, _, _ = doc.array(das["types"], "Cells")
+    if values.dtype.kind not in "iu" or values.size != m:
+        raise doc.fail(f"DataArray 'types' of Cells holds {values.size} {values.dtype} values for {m} cells; "
+                       f"check the file")
+    return values.astype(np.int64)
 
 
 def read_imagedata(path):

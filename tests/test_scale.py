@@ -545,17 +545,15 @@ PARTITIONED = ("default", "gvf-harmonic", "gvf")
 
 @pytest.mark.parametrize("mesh, method", [(mesh, method) for method in PARTITIONED + ("harmonic", "biharmonic",
                                                                                      "triharmonic", "rbf", "gp")
-                                           for mesh in ("regular", "irregular")
-                                           if not (mesh == "regular" and method in PARTITIONED)])
+                                           for mesh in ("regular", "irregular")])
 @given(st.floats(-8.0, 8.0))
 @example(-8.0)
 @example(8.0)
 @settings(max_examples=6, deadline=None, derandomize=True, database=None)
 def test_every_method_is_invariant_to_the_meshs_units(mesh, method, e):
     # the default moved by 0.036 of the range at 1e8: Step 4's slopes (a quadratic fit whose conditioning test saw
-    # the units) and the vertex "a third along" a curve (a tie on regular meshes) were decided by rounding, which
-    # differs with the units (powers of two never showed it). On a regular mesh the partition's equal shortest
-    # paths are still chosen by rounding: see the xfail below
+    # the units), the vertex "a third along" a curve and, on regular meshes, the partition's equal shortest paths
+    # were decided by rounding, which differs with the units (powers of two never showed it)
     V = _V3 if mesh == "regular" else IRREGULAR
     vals = np.sin(2 * V[IDX40, 0]) + V[IDX40, 1] * V[IDX40, 2]
     if (mesh, method) not in UNIT:
@@ -568,10 +566,8 @@ def test_every_method_is_invariant_to_the_meshs_units(mesh, method, e):
         assert np.abs(got.std - ref.std).max() <= 1e-9 * ref.std.max()
 
 
-@pytest.mark.xfail(strict=True, reason="equal shortest paths (a regular mesh has many) are chosen by rounding, "
-                                      "which differs with the units; quantised lengths fixed it but broke a tie the "
-                                      "flat grid's linear precision relies on (docs/NOTES.md)")
 def test_partition_ties_on_a_regular_mesh():
+    """Equal shortest paths (a regular mesh has many) are tied exactly and broken the same way at every scale."""
     V, F = icosphere(4)
     idx = np.random.default_rng(0).choice(len(V), 100, replace=False)
     vals = np.sin(2 * V[idx, 0]) + V[idx, 1] * V[idx, 2]

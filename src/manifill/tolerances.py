@@ -37,9 +37,13 @@ class Tolerances:
     sample_conflict : float
         Two samples at one vertex conflict when their values differ by more than
         ``sample_conflict`` times the largest absolute sample value.
-    graph_length_floor : float
+    graph_length_quantum : float
         Edge lengths of the ``length`` mesh graph, in units of the mean edge
-        length, are at least ``graph_length_floor`` (so no edge has length 0).
+        length, are rounded to multiples of ``graph_length_quantum``, a power of
+        two, and are at least one (no edge has length 0). Lengths equal in exact
+        arithmetic (a regular mesh has many) are then equal in floating point
+        whatever the mesh's units, and their sums along paths are exact: equal
+        shortest paths are tied, and the ties broken the same way at every scale.
     robust_mollify : float
         Mollification factor of ``weights='robust'`` (robust-laplacian's
         ``mollify_factor``, relative to the mean edge length).
@@ -118,7 +122,7 @@ class Tolerances:
     norm_tiny: float = 1e-280
     norm_huge: float = 1e280
     sample_conflict: float = 1e-12
-    graph_length_floor: float = 1e-12
+    graph_length_quantum: float = 2.0 ** -30
     robust_mollify: float = 1e-5
     vti_direction: float = 1e-12
     lipschitz_rtol: float = 1e-12

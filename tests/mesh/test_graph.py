@@ -68,7 +68,18 @@ def slow_voronoi(G, sources):
                 continue
             length = dist[u] + G.data[at] + dist[v]
             if (a, b) not in best or length < best[(a, b)][0]:
-                best[(a, b)] = (length, u, v)
+                best[(a, b)] = (length, u, v, -1)
+    # then through a vertex x of a third cell as near to two others (its first neighbour in each): p .. a, x, b .. q
+    for x in range(G.shape[0]):
+        near = {}
+        for at in range(G.indptr[x], G.indptr[x + 1]):
+            a = int(G.indices[at])
+            if root[a] >= 0 and root[a] != root[x] and dist[a] + G[a, x] == dist[x]:
+                near[int(root[a])] = min(near.get(int(root[a]), a), a)
+        for p in sorted(near):
+            for q in sorted(near):
+                if p < q and ((p, q) not in best or 2 * dist[x] < best[(p, q)][0]):
+                    best[(p, q)] = (2 * dist[x], near[p], near[q], x)
     keys = sorted(best)
     return keys, [best[k] for k in keys]
 
@@ -88,3 +99,4 @@ def test_voronoi_pairs_match_the_pairs_edge_by_edge(name, distance, seed, k):
     assert list(zip(vor.p.tolist(), vor.q.tolist())) == keys
     assert vor.length.tolist() == [r[0] for r in rows]
     assert vor.edge.tolist() == [[r[1], r[2]] for r in rows]
+    assert vor.via.tolist() == [r[3] for r in rows]

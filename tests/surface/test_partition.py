@@ -340,7 +340,8 @@ def slow_partition(V, F, idx, G, method):
         T = csgraph.minimum_spanning_tree(csr_array((vor.length, (vor.p, vor.q)), shape=(k, k))).tocoo()
         tree = {(min(a, b), max(a, b)) for a, b in zip(T.row.tolist(), T.col.tolist())}
         rows = [j for j in rows if (int(vor.p[j]), int(vor.q[j])) in tree]
-    curves = [walk(vor.edge[j][0])[::-1] + walk(vor.edge[j][1]) for j in rows]
+    curves = [walk(vor.edge[j][0])[::-1] + ([int(vor.via[j])] if vor.via[j] >= 0 else []) + walk(vor.edge[j][1])
+              for j in rows]
     ends = [(int(idx[vor.p[j]]), int(idx[vor.q[j]])) for j in rows]
     on = np.zeros(len(V), dtype=bool)
     on[idx] = True

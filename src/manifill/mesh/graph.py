@@ -27,7 +27,7 @@ __all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trac
 
 DISTANCES = ("hops", "length")
 
-Voronoi = namedtuple("Voronoi", "p q length edge dist root pred")
+Voronoi = namedtuple("Voronoi", "p q length edge via dist root pred")
 
 
 def mesh_graph(V, F, *, distance="length", index=None):
@@ -74,7 +74,8 @@ def mesh_graph(V, F, *, distance="length", index=None):
             w += (x[E[:, 0]] - x[E[:, 1]]) ** 2
         w = np.sqrt(w)
         mean = w.mean() if w.size else 1.0
-        w = np.maximum(w / (mean if mean > 0 else 1.0), TOL.graph_length_floor)
+        q = TOL.graph_length_quantum
+        w = np.maximum(np.round(w / ((mean if mean > 0 else 1.0) * q)), 1.0) * q
     return index.matrix(w)
 
 
@@ -174,15 +175,23 @@ def voronoi_pairs(G, sources):
     n = G.shape[0]
     rv = root[G.indices]
     ru = np.repeat(root, np.diff(G.indptr))
-    at = np.flatnonzero((ru >= 0) & (ru < rv))  # directed edges from a cell to a later one
-    u = np.repeat(np.arange(n), np.diff(G.indptr))[at]
-    v = G.indices[at].astype(np.int64)
-    ru, rv = ru[at], rv[at]
-    length = dist[u] + G.data[at] + dist[v]
+    cross = np.flatnonzero((ru >= 0) & (ru != rv))  # directed edges between two cells
+    u = np.repeat(np.arange(n), np.diff(G.indptr))[cross]
+    v = G.indices[cross].astype(np.int64)
+    ru, rv, w = ru[cross], rv[cross], G.data[cross]
+    # a vertex as near to two other cells as to its own joins them too (a tie of three sources)
+    tu, tv, tx, tl, tp, tq = _tied_crossings(u, v, w, dist, root)
+    at = ru < rv  # each crossing once: from a cell to a later one
+    u, v, ru, rv = u[at], v[at], ru[at], rv[at]
+    length = dist[u] + w[at] + dist[v]
+    via = np.full(u.size, -1, dtype=np.int64)
+    u, v, via, length = (np.concatenate(a) for a in ((u, tu), (v, tv), (via, tx), (length, tl)))
+    ru, rv = np.concatenate([ru, tp]), np.concatenate([rv, tq])
     if length.size == 0:
         e = np.empty(0, dtype=np.int64)
-        return Voronoi(e, e, np.empty(0), np.empty((0, 2), dtype=np.int64), dist, root, pred)
-    # per pair of cells (in the order of (p, q)), the shortest crossing, the first edge among equals
+        return Voronoi(e, e, np.empty(0), np.empty((0, 2), dtype=np.int64), e, dist, root, pred)
+    # per pair of cells (in the order of (p, q)), the shortest crossing, the first among equals (an edge before
+    # a crossing through a tied vertex)
     key = ru * sources.size + rv
     order = np.argsort(key, kind="stable")
     key, lo = key[order], length[order]
@@ -191,7 +200,48 @@ def voronoi_pairs(G, sources):
     best = np.flatnonzero(lo == np.repeat(np.minimum.reduceat(lo, start), size))
     pair = np.repeat(np.arange(start.size), size)[best]
     pick = order[best[np.concatenate([[True], pair[1:] != pair[:-1]])]]
-    return Voronoi(ru[pick], rv[pick], length[pick], np.column_stack([u[pick], v[pick]]), dist, root, pred)
+    return Voronoi(ru[pick], rv[pick], length[pick], np.column_stack([u[pick], v[pick]]), via[pick], dist, root,
+                   pred)
+
+
+def _tied_crossings(a, x, w, dist, root):
+    """Crossings between two cells through a vertex of a third at the same distance from both.
+
+    A vertex ``x`` whose shortest paths come as short from cells ``p`` and ``q`` (through
+    neighbours ``a`` in ``p`` and ``b`` in ``q``, ``dist[a] + |ax| == dist[x]``) lies where
+    the three cells meet; ``p`` and ``q`` touch there, by the path ``p .. a, x, b .. q`` of
+    length ``2 dist[x]``. Lengths are exact multiples of a power of two
+    (:func:`mesh_graph`), so such ties are exact.
+
+    Parameters
+    ----------
+    a, x, w : numpy arrays
+        The directed edges ``a -> x`` between two cells, and their lengths.
+    dist, root : numpy arrays
+        Of :func:`offset_distances`.
+
+    Returns
+    -------
+    u, v, x, length, p, q : numpy arrays
+        Per crossing: ``a``, ``b``, the vertex ``x``, the length and the cells, ``p < q``.
+    """
+    tight = dist[a] + w == dist[x]  # only a tie can make a shortest path cross a cell's boundary
+    a, x, ra = a[tight], x[tight], root[a[tight]]
+    # one neighbour per (vertex, cell): the first
+    order = np.lexsort((a, ra, x))
+    a, x, ra = a[order], x[order], ra[order]
+    first = np.concatenate([[True], (x[1:] != x[:-1]) | (ra[1:] != ra[:-1])]) if x.size else np.zeros(0, bool)
+    a, x, ra = a[first], x[first], ra[first]
+    out = [[] for _ in range(6)]
+    starts = np.flatnonzero(np.concatenate([[True], x[1:] != x[:-1]])) if x.size else np.zeros(0, np.int64)
+    ends = np.append(starts[1:], x.size)
+    for s0, s1 in zip(starts[ends - starts >= 2], ends[ends - starts >= 2]):
+        for i in range(s0, s1):
+            for j in range(i + 1, s1):  # cells sorted: ra[i] < ra[j]
+                for lst, val in zip(out, (a[i], a[j], x[i], 2.0 * dist[x[i]], ra[i], ra[j])):
+                    lst.append(val)
+    kinds = (np.int64, np.int64, np.int64, np.float64, np.int64, np.int64)
+    return tuple(np.array(lst, dtype=k) for lst, k in zip(out, kinds))
 
 
 def trace(pred, x):

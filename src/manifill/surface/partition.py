@@ -146,12 +146,28 @@ def _unique(key):
     return key[keep]
 
 
-def _paths_between(pred, edge):
-    """Per edge ``(u, v)``: source-of-u ... u, v ... source-of-v, from one multi-source Dijkstra.
+def _paths_between(pred, edge, via=None):
+    """Per edge ``(u, v)``: source-of-u ... u, [via,] v ... source-of-v, from one multi-source Dijkstra.
 
     All paths at once (:func:`manifill.mesh.graph.trace_paths`): the concatenation
-    and the lengths.
+    and the lengths. ``via`` (``-1`` for none) is a vertex between ``u`` and ``v``.
     """
+    flat, clens, lu = _halves(pred, edge)
+    if via is None or not (via >= 0).any():
+        return flat, clens
+    has = via >= 0
+    lens = clens + has
+    start = np.cumsum(lens) - lens
+    j = np.repeat(np.arange(len(edge)), clens)
+    t = np.arange(flat.size) - np.repeat(np.cumsum(clens) - clens, clens)
+    out = np.empty(int(lens.sum()), dtype=np.int64)
+    out[start[j] + t + (has[j] & (t >= lu[j]))] = flat
+    out[start[has] + lu[has]] = via[has]
+    return out, lens
+
+
+def _halves(pred, edge):
+    """The paths of :func:`_paths_between` without ``via``, and the lengths of their ``u`` halves."""
     e = len(edge)
     flat, lens = trace_paths(pred, np.concatenate([edge[:, 0], edge[:, 1]]))
     lu, lv = lens[:e], lens[e:]
@@ -166,7 +182,7 @@ def _paths_between(pred, edge):
     j = np.repeat(np.arange(e), lv)
     t = np.arange(flat.size - nu) - (np.cumsum(lv) - lv)[j]
     out[cstart[j] + lu[j] + t] = flat[nu:]
-    return out, clens
+    return out, clens, lu
 
 
 def _split(flat, lens):
@@ -177,7 +193,7 @@ def _split(flat, lens):
 
 def _delaunay_paths(G, idx):
     vor = voronoi_pairs(G, idx)
-    flat, lens = _paths_between(vor.pred, vor.edge)
+    flat, lens = _paths_between(vor.pred, vor.edge, vor.via)
     ends = np.column_stack([idx[vor.p], idx[vor.q]]) if len(vor.p) else np.empty((0, 2), np.int64)
     return (flat, lens), ends, vor
 
@@ -191,7 +207,7 @@ def _tree_paths(G, idx):
     T = csgraph.minimum_spanning_tree(W).tocoo()
     lo, hi = np.minimum(T.row, T.col).astype(np.int64), np.maximum(T.row, T.col).astype(np.int64)
     sel = np.flatnonzero(np.isin(vor.p * k + vor.q, lo * k + hi))
-    return _paths_between(vor.pred, vor.edge[sel]), np.column_stack([idx[vor.p[sel]], idx[vor.q[sel]]])
+    return _paths_between(vor.pred, vor.edge[sel], vor.via[sel]), np.column_stack([idx[vor.p[sel]], idx[vor.q[sel]]])
 
 
 def _cycle_paths(V, G, idx):

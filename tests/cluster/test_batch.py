@@ -239,6 +239,25 @@ def test_an_interrupted_batch_keeps_every_finished_job_in_its_summary(tmp_path, 
     assert {r["id"] for r in again.rows if r["status"] == "skipped"} == set(written)
 
 
+def test_a_forced_rerun_cut_short_keeps_the_earlier_rows_of_the_jobs_it_did_not_finish(tmp_path, inputs, client):
+    from manifill.cluster.run import read_summary
+
+    # `batch --force` then SIGTERM: the summary held only its header, and the next run redid every job
+    js = jobs(inputs, tmp_path / "out")[:3]
+    first = manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv")
+    assert [r["status"] for r in first.rows] == ["done"] * 3
+
+    def stop(row, finished, total):
+        raise KeyboardInterrupt  # the first job's row: the others have not been recorded by this run
+
+    with pytest.raises(KeyboardInterrupt):
+        manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv", force=True, progress=stop)
+    written = read_summary(tmp_path / "s.csv")
+    assert set(written) == {"a", "b", "c"} and {r["status"] for r in written.values()} == {"done"}
+    again = manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv")
+    assert [r["status"] for r in again.rows] == ["skipped"] * 3
+
+
 def test_a_killed_worker_leaves_no_warning_on_the_command_lines_stderr(tmp_path, inputs):
     # multiprocessing's resource tracker printed "There appear to be 1 leaked semaphore objects" (two lines)
     import subprocess

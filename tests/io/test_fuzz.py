@@ -527,7 +527,8 @@ def _outcome(reader, path):
 
 #: a message naming no cause ('(ReadError)'), or Python's words instead of the file's
 VAGUE = re.compile(r"\((?:\w+Error|\w+Error, no reason given)\)|UnicodeDecodeError|could not convert string|"
-                   r"invalid literal for|list index out of range|cannot reshape|codec can't")
+                   r"invalid literal for|list index out of range|cannot reshape|codec can't|malformed node|"
+                   r"TokenError|Errno")
 
 _serial = count()
 

@@ -138,6 +138,9 @@ def test_a_ply_without_its_format_line_says_so(tmp_path):
                                                                           "rows of 4"),
     (EOFError(), "it ends early, truncated"),
     (KeyError("dOuble"), "the unknown name 'dOuble'"),
+    (ValueError("malformed node or string on line 1: <ast.Name>"), "a header that is not the dictionary an NPY "
+                                                                 "array starts with"),
+    (OSError(22, "Invalid argument"), "a size or position in it that is impossible"),
 ])
 def test_parser_complaints_are_said_in_the_files_terms(tmp_path, exc, says):
     from manifill.io.files import reading

@@ -16,6 +16,7 @@ never imports the cluster layer.
 import argparse
 import contextlib
 import io
+import logging
 import os
 import signal
 import sys
@@ -101,9 +102,11 @@ def main(argv=None):
             return 1
         except _Terminated:
             print("manifill: terminated; no output was left half-written", file=sys.stderr)
+            _quiet_shutdown(argv)
             return 143
         except KeyboardInterrupt:
             print("manifill: interrupted; no output was left half-written", file=sys.stderr)
+            _quiet_shutdown(argv)
             return 130
         except ManifillError as exc:
             return err(str(exc))
@@ -120,6 +123,17 @@ def main(argv=None):
             print(f"manifill: internal error: {type(exc).__name__}: {text} (a bug; MANIFILL_DEBUG=1 shows the "
                   f"traceback)", file=sys.stderr)
             return 1
+
+
+def _quiet_shutdown(argv):
+    """After the one line of a signal, nothing more: a Dask cluster cut short while it started prints tracebacks
+    from its exit handlers and event loop (``Nanny failed to start``). Only for the command line itself
+    (``argv`` None): a program calling :func:`main` keeps its own hooks."""
+    if argv is not None:
+        return
+    sys.unraisablehook = lambda unraisable: None  # "Exception ignored in atexit callback"
+    for name in ("asyncio", "distributed", "tornado"):  # "Task exception was never retrieved"
+        logging.getLogger(name).disabled = True
 
 
 class _Terminated(KeyboardInterrupt):

@@ -46,14 +46,16 @@ def run(args):
         if not args.quiet:
             extra = f"  {row['error']}" if row["error"] else ""
             seconds = f" {float(row['seconds']):.1f} s" if row.get("seconds") else ""
+            if row["status"] == "skipped":  # its time is the run that did it
+                seconds = f" (done before in{seconds}, same inputs)" if seconds else " (done before, same inputs)"
             print(f"[{finished}/{total}] {row['id']}: {row['status']}{seconds}{extra}", flush=True)
 
     result = batch(args.manifest, scheduler=args.scheduler, workers=args.workers, memory_limit=args.memory_limit,
                    summary=args.summary, force=args.force, progress=progress)
     counts = ", ".join(f"{v} {k}" for k, v in sorted(result.counts().items()))
     if not args.quiet:
-        print(f"{len(result.rows)} jobs in {result.seconds:.1f} s on {result.workers} workers: {counts}; "
-              f"summary {result.summary}")
+        where = f"on {result.workers} workers" if result.workers else "nothing to run"
+        print(f"{len(result.rows)} jobs in {result.seconds:.1f} s, {where}: {counts}; summary {result.summary}")
     if not result.ok:
         bad = sum(r["status"] not in ("done", "skipped") for r in result.rows)
         print(f"manifill: {bad} of {len(result.rows)} jobs did not finish; their errors are in {result.summary}",

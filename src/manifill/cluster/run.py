@@ -142,7 +142,8 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
         raise OptionError(f"the summary {path} is also a job's output; pass another summary path")
     if any(path.resolve() == Path(p).resolve() for j in job_list for p in (j.mesh, j.samples)):
         raise OptionError(f"the summary {path} is also a job's input; pass another summary path")
-    previous = {} if force else read_summary(path)
+    earlier = read_summary(path)  # kept for the jobs this run has not finished (--force, a signal)
+    previous = {} if force else earlier
     rows, todo = {}, []
     for job in job_list:
         try:
@@ -170,7 +171,7 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
         finished += 1
         now = time.perf_counter()
         if finished == len(job_list) or now - written >= SUMMARY_SECONDS:  # O(jobs) per write: not every job
-            write_summary(path, [rows[j.id] for j in job_list if j.id in rows])
+            write_summary(path, _known(job_list, rows, earlier))
             written = now
         if progress is not None:
             progress(row, finished, len(job_list))
@@ -198,12 +199,35 @@ def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None
                         row = _row(job, digest, status="failed", error=f"{type(exc).__name__}: {_one_line(exc)}")
                     record(job, row)
             finally:  # interrupted (SIGTERM, Ctrl-C): the jobs that finished are in the summary, not recomputed
-                for future, (job, digest) in futures.items():
-                    if job.id not in rows and future.status == "finished":
-                        rows[job.id] = future.result()
-                write_summary(path, [rows[j.id] for j in job_list if j.id in rows])
+                _collect(distributed, futures, rows)
+                write_summary(path, _known(job_list, rows, earlier))
     return BatchResult(rows=[rows[j.id] for j in job_list], summary=path, seconds=time.perf_counter() - t0,
                        workers=count)
+
+
+#: Seconds an interrupted batch waits for the results of jobs whose outputs may be written already.
+LAST_RESULTS_SECONDS = 1.0
+
+
+def _collect(distributed, futures, rows):
+    """The rows of jobs finished by now, waiting a moment for results on their way from the workers."""
+    pending = [f for f, (job, _) in futures.items() if job.id not in rows and f.status != "finished"]
+    if pending:
+        try:
+            distributed.wait(pending, timeout=LAST_RESULTS_SECONDS)
+        except Exception:  # noqa: BLE001 - a timeout or a client closing: what has arrived is kept
+            pass
+    for future, (job, digest) in futures.items():
+        if job.id not in rows and future.status == "finished":
+            try:
+                rows[job.id] = future.result(timeout=LAST_RESULTS_SECONDS)
+            except Exception:  # noqa: BLE001 - lost with the cluster: the job runs again next time
+                pass
+
+
+def _known(job_list, rows, earlier):
+    """The summary's rows: this run's, and an earlier run's for jobs this one has not finished."""
+    return [rows.get(j.id) or earlier[j.id] for j in job_list if j.id in rows or j.id in earlier]
 
 
 def _size(job):

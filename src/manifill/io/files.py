@@ -149,6 +149,9 @@ _PLAIN = [
     (re.compile(r"Python int too large to convert to C \w+"), "a number too large for its type"),
     (re.compile(r"setting an array element with a sequence.*"), "lines of different lengths where they should match"),
     (re.compile(r"no field of name (.*)"), r"no property named \1"),
+    (re.compile(r"malformed node or string.*|\('EOF in multi-line statement'.*"),
+     "a header that is not the dictionary an NPY array starts with"),
+    (re.compile(r"\[Errno 22\] Invalid argument"), "a size or position in it that is impossible"),
 ]
 
 

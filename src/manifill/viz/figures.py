@@ -163,7 +163,7 @@ def paper_figures(out, field, label):
     render_panels([dict(V=V, F=F, values=on_paths, samples=idx, curves=r.curves, colour_curves=True,
                         title="(a) GVF on the paths"),
                    dict(V=V, F=F, values=r.values, samples=idx, title="(b) harmonic fitting")],
-                  path, size=(1400, 430), view=(0.2, -1.0, 0.6), zoom=1.25)
+                  path, size=(1400, 430), view=(0.2, -1.0, 0.6))
     files.append(path)
     lines.append(f"    Fig. 4.4 three components ({len(V):,} vertices): 12 samples, {len(r.curves)} paths, "
                  f"rel. RMSE {err(r.values, truth, idx):.3f} -> {path.name}")

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import OptionError, WriteError
 from ..mesh.objects import mesh_arrays
 from ..results import TRUSTED
+from .layout import fill_frame, position_text, tick_labels
 from .viewer import MASK_STYLES, choose_field, field_kind, field_range, named_fields
 
 __all__ = ["Look", "render", "render_fields", "render_panels", "render_slices", "STD_CMAP"]
@@ -120,10 +121,7 @@ def _style(kind, name, values, cmap, clim):
         return [c0, c1], [0.0, 1.0], {"n_colors": 2, "annotations": {0.0: l0, 1.0: l1}}, bar
     if kind == "category":  # labels (patches): one flat colour each, a legend of names, no continuous ticks
         cats = np.unique(np.asarray(values)[np.isfinite(values)]).astype(np.int64)
-        ann = {float(c): ("curves" if c < 0 else f"{name} {c}") for c in cats}
-        bar = {"n_labels": 0, "position_y": 0.03}  # its names above it, clear of the object
-        return "tab10", [float(cats.min()) - 0.5, float(cats.max()) + 0.5], {"n_colors": len(cats),
-                                                                              "annotations": ann}, bar
+        return "tab10", [float(cats.min()) - 0.5, float(cats.max()) + 0.5], {"n_colors": len(cats)}, {"n_labels": 0}
     if kind == "std":
         return STD_CMAP, clim if clim is not None else field_range("std", values), {}, {}
     return cmap, clim, {}, {}
@@ -141,21 +139,29 @@ def _pv():
     return pv
 
 
-def _bar_text(pl, actors, clim, labels, title):
+def _bar_text(pl, actors, clim, labels, title, names=None):
     """The bar's ticks and name drawn by hand: VTK's title sat on the middle label and its end labels, centred on
-    the bar's ends, stuck out past them; here the end labels end with the bar (left- and right-aligned)."""
+    the bar's ends, stuck out past them; here the end labels end with the bar (left- and right-aligned), labels
+    that would crowd are thinned (:func:`manifill.viz.layout.tick_labels`), and a category's ``names`` stand
+    centred under their colours."""
     for actor in actors:
         actor.SetDrawTickLabels(False)
         actor.SetTitle("")
         actor.SetPosition(0.2, 0.065)
         actor.SetHeight(0.045)
-    for j, t in enumerate(np.linspace(clim[0], clim[1], labels)):
-        text = pl.add_text(f"{float(f'{t:.10g}'):.6g}", position=(0.2 + 0.6 * j / (labels - 1), 0.02), viewport=True,
-                           font_size=10, color="black")
+        actor.SetWidth(0.6)
+    vp = pl.renderer.GetViewport()
+    bar_pixels = 0.6 * pl.window_size[0] * (vp[2] - vp[0])
+    if names is not None:
+        ticks, suffix = [((j + 0.5) / len(names), str(t)) for j, t in enumerate(names)], ""
+    else:
+        ticks, suffix = tick_labels(clim, labels, bar_pixels, 13)
+    for j, (at, label) in enumerate(ticks):
+        text = pl.add_text(label, position=(0.2 + 0.6 * at, 0.02), viewport=True, font_size=10, color="black")
         prop = text.GetTextProperty()
-        (prop.SetJustificationToLeft if j == 0 else prop.SetJustificationToRight if j == labels - 1
+        (prop.SetJustificationToLeft if at == 0.0 else prop.SetJustificationToRight if at == 1.0
          else prop.SetJustificationToCentered)()
-    name = pl.add_text(title, position=(0.5, 0.12), viewport=True, font_size=12, color="black")
+    name = pl.add_text(title + suffix, position=(0.5, 0.12), viewport=True, font_size=12, color="black")
     name.GetTextProperty().SetJustificationToCentered()
 
 
@@ -182,8 +188,12 @@ def _add_surface(pl, pv, panel, clim, cmap):
                                      "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
                     **extra)
         new = [key for key in pl.scalar_bars.keys() if key not in before]  # a bar shared with a panel before: none
-        if kind not in ("mask", "category") and new:  # our own labels under the bar, the name above it
-            _bar_text(pl, [pl.scalar_bars[key] for key in new], clim, labels, panel.get("bar_title", name))
+        if kind != "mask" and new:  # our own labels under the bar, the name above it
+            names = None
+            if kind == "category":  # each colour's name under it
+                cats = np.unique(np.asarray(values)[np.isfinite(values)]).astype(np.int64)
+                names = ["curves" if c < 0 else f"{name} {c}" for c in cats]
+            _bar_text(pl, [pl.scalar_bars[key] for key in new], clim, labels, panel.get("bar_title", name), names)
     else:
         pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
     curves = panel.get("curves")
@@ -237,8 +247,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
     same_scale : bool, optional
         One colour range for all panels of kind ``'value'`` without a ``clim`` (to compare them).
     zoom : float, optional
-        Magnify every panel's view by this much (above 1 for wide objects, which the camera's
-        fit to their bounding sphere leaves small).
+        Magnify every panel's view by this much more than the fit that makes the objects fill it
+        (:func:`manifill.viz.layout.fill_frame`).
     view : tuple of 3 floats, optional
         Direction the camera looks from (default: pyvista's isometric view).
     viewup : tuple of 3 floats, optional
@@ -269,11 +279,16 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         _add_surface(pl, pv, panel, clim, cmap)
         if view is not None:
             pl.view_vector(view, viewup=viewup)
-        if zoom != 1.0:  # a wide object fills its panel (the camera fits its bounding sphere)
-            pl.camera.zoom(zoom)
         pl.set_background("white")
     if len(panels) > 1:
         pl.link_views()
+    pl.render()
+    fill_frame(pl.renderers, [np.asarray(p["V"])[:: max(1, len(p["V"]) // 5000)] for p in panels])
+    for ren in pl.renderers:
+        if zoom != 1.0:
+            ren.GetActiveCamera().Zoom(zoom)
+            if len(panels) > 1:
+                break  # one camera, linked
     try:
         pl.screenshot(str(path))
     except (OSError, ValueError) as exc:
@@ -409,21 +424,32 @@ def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 45
     if kind == "value" and clim:  # round ticks, as on the surfaces
         shown, labels = nice_range(np.asarray(clim))
     centre = grid.center
+    extent = float(max(np.ptp(np.reshape(grid.bounds, (3, 2)), axis=1)))
     pl = pv.Plotter(off_screen=True, shape=(1, 3), window_size=list(size), border=False)
+    shown_points = []
     for j, normal in enumerate("xyz"):
         pl.subplot(0, j)
         sl = grid.slice(normal=normal)
         sl = sl.threshold(value=clim, scalars=name) if clim else sl
+        before = set(pl.scalar_bars.keys())
+        title = f"{name}, all three slices"
         pl.add_mesh(sl, scalars=name, cmap=cmap, clim=shown, nan_opacity=0.0,
-                    scalar_bar_args={"title": f"{name} (one scale for the three slices)", "vertical": False,
-                                     "fmt": "%.4g", "n_labels": labels, "position_x": 0.15, "position_y": 0.02,
-                                     "width": 0.7, "height": 0.16, **bar}, **extra)
+                    scalar_bar_args={"title": title, "vertical": False, "fmt": "%.4g", "n_labels": labels,
+                                     "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
+                    **extra)
+        new = [key for key in pl.scalar_bars.keys() if key not in before]
+        if kind == "value" and clim and new:
+            _bar_text(pl, [pl.scalar_bars[key] for key in new], shown, labels, title)
         at = float(centre["xyz".index(normal)])
-        pl.add_text(f"slice at {normal} = {at:.3g}", font_size=10, position="upper_edge", color="black")
+        pl.add_text(f"slice at {normal} = {position_text(at, extent)}", font_size=10, position="upper_edge",
+                    color="black")
         pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal],
                        viewup=(0, 1, 0) if normal == "z" else (0, 0, 1))
         pl.add_axes(color="black", line_width=2, viewport=(0.8, 0.7, 1.0, 0.9))  # which way x, y and z point
         pl.set_background("white")
+        shown_points.append(np.asarray(sl.points)[:: max(1, sl.n_points // 5000)] if sl.n_points else None)
+    pl.render()
+    fill_frame(pl.renderers, shown_points)
     try:
         pl.screenshot(str(path))
     except (OSError, ValueError) as exc:

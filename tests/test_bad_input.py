@@ -123,6 +123,16 @@ def test_regression_huge_sample_values_are_refused_before_any_overflow(method):
     assert np.isfinite(r.values).all() and np.allclose(r.values[idx], vals, rtol=1e-9, atol=1e135)
 
 
+def test_regression_huge_values_in_a_csv_are_said_with_the_files_lines(tmp_path, capsys):
+    # the CLI said "vals reaches 1e+308 (rows 0, 1, ...)": an internal name, rows counted from 0 without the header
+    V, F = icosphere(1)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    (tmp_path / "s.csv").write_text("vertex,value\n0,1.0\n5,-1e200\n7,2.0\n9,1e308\n")
+    line = assert_usage_error(*run(capsys, "reconstruct", tmp_path / "m.vtu", tmp_path / "s.csv", "-o",
+                                   tmp_path / "o.vtu"))
+    assert "s.csv: values beyond 1e+150 on lines 3, 5 (up to 1e+308)" in line and "vals" not in line
+
+
 def test_regression_mesh_and_samples_swapped_get_a_hint(tmp_path, capsys):
     # was "s.csv: cannot read '.csv' files; use one of ..."
     V, F = icosphere(1)

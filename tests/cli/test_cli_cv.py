@@ -110,3 +110,31 @@ def test_auto_prints_the_table_before_the_fill_it_chose(capsys, case):
     chose = next(i for i, line in enumerate(lines) if line.startswith("auto: chose"))
     fill = [i for i, line in enumerate(lines) if line.startswith(("steps 5-6", "rbf:")) or " fill (" in line]
     assert fill and table < chose < min(fill)
+
+
+def test_auto_says_when_its_choice_leaves_the_samples_range(capsys, case, monkeypatch):
+    # the choice overshot by 7.56% of the range and the command line said nothing (cv did)
+    from manifill.surface import crossval_result
+
+    monkeypatch.setattr(crossval_result.CrossValidation, "_bounded_advice",
+                        lambda self, best, rest: " It overshoots the samples' range by up to 7.56% of it.")
+    code, out, err = run(capsys, "reconstruct", case["path"], case["samples"], "--method", "auto", "-o",
+                         case["folder"] / "out4.csv")
+    assert code == 0, err
+    lines = out.splitlines()
+    chose = next(i for i, line in enumerate(lines) if line.startswith("auto: chose"))
+    assert "overshoots the samples' range by up to 7.56%" in lines[chose + 1]
+
+
+def test_many_fields_are_summed_up_not_listed(capsys):
+    # a wide CSV of 200 time columns written to .npy printed 200 range lines and a line of 200 names
+    from types import SimpleNamespace
+
+    from manifill.cli.common import MANY_FIELDS, field_list, print_ranges
+
+    names = [f"t{j}" for j in range(200)]
+    X = np.arange(5 * 200, dtype=float).reshape(5, 200)
+    print_ranges(X, SimpleNamespace(names=names, vals=X[:3]), "o.npy")
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 3 + 1 + 1 and out[3].startswith("  ... 197 more fields; all 200: range [0, 999]")
+    assert field_list(names) == "t0, t1, t2, ..., t199" and field_list(names[:MANY_FIELDS]).count(",") == 7

@@ -117,6 +117,7 @@ def test_xdmf_is_read_by_pyvista_one_mesh_per_time_step(tmp_path):
         np.testing.assert_array_equal(mesh.points, V)
         np.testing.assert_array_equal(mesh.point_data["temp"], X[:, k])
         np.testing.assert_array_equal(mesh.point_data["sample_mask"], static["sample_mask"])
+        assert mesh.point_data["sample_mask"].dtype == np.uint8  # masks as bytes (UChar), not VTK's uint32 (UInt)
     first = pv.read(str(path))
     np.testing.assert_array_equal(first.point_data["temp"], X[:, 0])
 

@@ -278,9 +278,25 @@ def print_ranges(X, S, out):
     """Each field's range beside the samples' (overshoot shows), and the output path."""
 
     (lo, hi), (slo, shi) = value_ranges(X), value_ranges(S.vals)
-    for j, name in enumerate(S.names):
-        print(f"  {name}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{slo[j]:.6g}, {shi[j]:.6g}])")
+    shown = range(len(S.names)) if len(S.names) <= MANY_FIELDS else range(3)
+    for j in shown:
+        print(f"  {S.names[j]}: range [{lo[j]:.6g}, {hi[j]:.6g}]  (samples [{slo[j]:.6g}, {shi[j]:.6g}])")
+    if len(S.names) > MANY_FIELDS:
+        print(f"  ... {len(S.names) - 3} more fields; all {len(S.names)}: range [{min(lo):.6g}, {max(hi):.6g}]  "
+              f"(samples [{min(slo):.6g}, {max(shi):.6g}])")
     print(f"wrote {out}")
+
+
+#: beyond this many fields, the command line names a few and sums up the rest
+MANY_FIELDS = 8
+
+
+def field_list(names):
+    """The fields' names for a line: all of them, or the first three and the last of many."""
+    names = list(names)
+    if len(names) <= MANY_FIELDS:
+        return ", ".join(names)
+    return f"{', '.join(names[:3])}, ..., {names[-1]}"
 
 
 #: the methods with a probability model (a standard deviation): --uncertainty and --trust take only these

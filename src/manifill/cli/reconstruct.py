@@ -9,7 +9,7 @@ from ..mesh.subdivide import check_subdivide, subdivide
 from ..report import value_columns
 from ..surface.methods.registry import configure, method_of
 from ..surface.reconstruct import reconstruct
-from .common import (bounds_arg, check_names, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
+from .common import (bounds_arg, check_names, field_list, levels, smoothing_arg, load, pictures, print_ranges, print_time, step_bar,
                      print_uncertainty, std_names, surface_outputs, uncertainty_opts, write_surface)
 from .series import SERIES_OUTPUTS, is_series, run_series
 from .options import (energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args, series_args,
@@ -114,7 +114,7 @@ def _write(args, out, V, F, X, S, data, added):
 def _summary(args, r, V, S):
     """The lines that say what ran: samples, Step 1, the method, the partition, the fill."""
     rep = r.report
-    print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {', '.join(S.names)})")
+    print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {field_list(S.names)})")
     if "points" in rep and rep["points"]["located"] != "nearest vertex":
         pt = rep["points"]
         print(f"located {pt['points']:,} positions on the surface: {pt['inside_faces']:,} inside faces, "
@@ -128,6 +128,9 @@ def _summary(args, r, V, S):
     if "auto" in rep:  # method='auto': the cross-validation table and the choice, before the fill it chose
         print(rep["auto"]["table"])
         print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
+        advice = rep["auto"]["recommendation"].split(". ", 1)  # what it says beyond the choice: overshoot, fields
+        if len(advice) > 1 and advice[1].strip():
+            print(f"  {advice[1].strip()}")
     if rep.get("default"):
         print(f"method: the default ({rep['method']}, {rep.get('curve_values')} curve values, bounded by the samples' "
               f"range; --method {rep['method']} for the paper's pipeline alone)")

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..errors import MeshError, ReadError, SampleError, WriteError
 from ..surface.samples import Samples, field_names
+from ..validate.samples import MAX_VALUE
 from .files import atomic_path, check_input_file, reading, suffix
 from .neuro import MORPH_SUFFIXES, read_label, read_vertex_data, sniff
 
@@ -269,6 +270,12 @@ def _read_csv(path):
     if bad.any():
         lines = ", ".join(str(lineno[int(r) + 1]) for r in np.flatnonzero(bad)[:5])
         raise SampleError(f"{path.name}: NaN or infinite values on lines {lines}; remove or fix those samples")
+    big = (np.abs(table[:, ncoord:]) > MAX_VALUE).any(axis=1)
+    if big.any():  # said here with the file's lines (the check of the values counts rows from 0)
+        lines = ", ".join(str(lineno[int(r) + 1]) for r in np.flatnonzero(big)[:5])
+        raise SampleError(f"{path.name}: values beyond {MAX_VALUE:.0e} on lines {lines} (up to "
+                          f"{np.abs(table[:, ncoord:]).max():.3g}), where the energies' squares overflow; divide the "
+                          f"values by a power of ten and scale the result back")
     return kind, table, [h.strip() for h in header[ncoord:]], np.asarray(lineno[1:])
 
 

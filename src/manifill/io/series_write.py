@@ -346,7 +346,7 @@ class _H5:
             self.tmp.discard()
 
 
-_XDMF_TYPES = {"float64": ("Float", "8"), "int32": ("Int", "4"), "int64": ("Int", "8"), "uint8": ("UInt", "1")}
+_XDMF_TYPES = {"float64": ("Float", "8"), "int32": ("Int", "4"), "int64": ("Int", "8"), "uint8": ("UChar", "1")}
 
 
 def _attribute_type(arr):

@@ -378,3 +378,14 @@ def test_refusals_are_option_errors_with_one_line(name):
         manifill.reconstruct(V2, F2, idx, V2[idx, 0], **REFUSALS[name])
     msg = str(e.value)
     assert "\n" not in msg and len(msg) > 20
+
+
+@pytest.mark.parametrize("variance", ["exact", "sampled"])
+def test_every_vertex_sampled_gives_the_samples_and_no_uncertainty(variance, capfd):
+    # printed LAPACK's "DPOTRI parameter number 4 had an illegal value", then a wrong "not positive definite" error
+    V, F = icosphere(2)
+    vals = np.sin(V[:, 0])
+    r = manifill.reconstruct(V, F, np.arange(len(V)), vals, method="gp", gp=dict(variance=variance))
+    np.testing.assert_array_equal(r.values, vals)
+    np.testing.assert_array_equal(r.std, 0.0)
+    assert capfd.readouterr().err == ""

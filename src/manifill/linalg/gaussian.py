@@ -193,6 +193,8 @@ class Conditional:
             var[:] = _inverse_diagonal(self.P.toarray())
             return var
         free = np.setdiff1d(np.arange(self.n), self.idx)
+        if free.size == 0:  # every node observed exactly: nothing is uncertain
+            return var
         Qff = self.Q[free][:, free].toarray()
         if self.rows is None:
             var[free] = _inverse_diagonal(Qff)

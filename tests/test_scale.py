@@ -573,3 +573,17 @@ def test_partition_ties_on_a_regular_mesh():
     vals = np.sin(2 * V[idx, 0]) + V[idx, 1] * V[idx, 2]
     got, ref = reconstruct(V * 3.0, F, idx, vals).values, reconstruct(V, F, idx, vals).values
     assert np.abs(got - ref).max() <= 1e-10 * np.ptp(vals)
+
+
+@pytest.mark.parametrize("s", [1e-6, 1e9])
+def test_the_gp_fit_and_std_follow_the_values_not_the_meshs_units(s):
+    # the gp's error was 0.30 of the range on the Earth in millimetres (0.0108 at unit radius): its scale was
+    # searched in fixed bounds. The same mesh in other units gives the same values and std; values x 1e3 give
+    # the std x 1e3
+    vals = np.sin(2 * IRREGULAR[IDX40, 0]) + IRREGULAR[IDX40, 1] * IRREGULAR[IDX40, 2]
+    ref = reconstruct(IRREGULAR, _F3, IDX40, vals, method="gp")
+    got = reconstruct(IRREGULAR * s, _F3, IDX40, vals, method="gp")
+    assert np.abs(got.values - ref.values).max() <= 1e-8 * np.ptp(vals)
+    assert np.abs(got.std - ref.std).max() <= 1e-8 * ref.std.max()
+    big = reconstruct(IRREGULAR * s, _F3, IDX40, vals * 1e3, method="gp")
+    np.testing.assert_allclose(big.std, 1e3 * ref.std, rtol=1e-8, atol=1e-8 * 1e3 * ref.std.max())

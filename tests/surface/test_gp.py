@@ -389,3 +389,58 @@ def test_every_vertex_sampled_gives_the_samples_and_no_uncertainty(variance, cap
     np.testing.assert_array_equal(r.values, vals)
     np.testing.assert_array_equal(r.std, 0.0)
     assert capfd.readouterr().err == ""
+
+
+# ---------------------------------------------------------------------------
+# posterior draws: r.sample(count, seed)
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("gp", [None, dict(noise=0.05)])
+def test_draws_spread_as_the_std_says_and_centre_on_the_mean(gp):
+    V, F = icosphere(3)
+    idx = np.sort(np.random.default_rng(0).choice(len(V), 40, replace=False))
+    r = manifill.reconstruct(V, F, idx, np.sin(2 * V[idx, 0]) + V[idx, 1], method="gp", gp=gp)
+    D = r.sample(1000, seed=1)
+    assert D.shape == (len(V), 1000)
+    free = r.std > 1e-6 * r.std.max()
+    ratio = D.std(axis=1)[free] / r.std[free]
+    assert abs(np.median(ratio) - 1.0) < 0.03 and np.mean(np.abs(ratio - 1.0) < 0.1) > 0.95
+    assert np.abs(D.mean(axis=1) - r.values).max() < 5.0 * r.std.max() / np.sqrt(1000)
+    if gp is None:  # exact data: every draw goes through the samples
+        np.testing.assert_allclose(D[idx], np.repeat(r.values[idx, None], 1000, axis=1), rtol=0, atol=1e-12)
+
+
+def test_draws_go_through_samples_inside_faces_and_repeat_with_their_seed():
+    V, F = icosphere(3)
+    rng = np.random.default_rng(3)
+    P = V[rng.choice(len(V), 30, replace=False)] + 0.02 * rng.normal(size=(30, 3))
+    vals = np.column_stack([P[:, 0], np.cos(P[:, 1])])
+    r = manifill.reconstruct(V, F, P, vals, method="gp")
+    D = r.sample(20, seed=7)
+    assert D.shape == (len(V), 2, 20)
+    loc = r.points
+    at = np.einsum("kc,kcpd->kpd", loc.bary, D[loc.corners])  # each draw, linear on the triangles, at the points
+    np.testing.assert_allclose(at, np.repeat(vals[:, :, None], 20, axis=2), rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(r.sample(20, seed=7), D)
+    assert not np.allclose(r.sample(20, seed=8), D)
+
+
+def test_only_a_fitted_model_is_drawn_from():
+    V, F = icosphere(2)
+    r = manifill.reconstruct(V, F, np.arange(0, 162, 9), np.ones(18), method="biharmonic")
+    with pytest.raises(OptionError, match="method='biharmonic' has no fitted probability model.*use method='gp'"):
+        r.sample(3)
+    g = manifill.reconstruct(V, F, np.arange(0, 162, 9), np.arange(18.0), method="gp")
+    with pytest.raises(OptionError, match="count=0 draws: pass 1 or more"):
+        g.sample(0)
+
+
+def test_draws_carry_the_uncertainty_of_the_estimated_mean():
+    # six samples near a pole and a range given: far away, the unknown mean is much of the uncertainty
+    V, F = icosphere(3)
+    idx = np.flatnonzero(V[:, 2] > 0.8)[:6]
+    r = manifill.reconstruct(V, F, idx, V[idx, 0], method="gp", gp=dict(range=1.0))
+    D = r.sample(1000, seed=1)
+    free = r.std > 1e-6 * r.std.max()
+    assert abs(np.median(D.std(axis=1)[free] / r.std[free]) - 1.0) < 0.03  # without the mean's share: 0.89

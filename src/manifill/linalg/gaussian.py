@@ -212,6 +212,23 @@ class Conditional:
         var[free] = np.maximum(_inverse_diagonal(c, factored=True) - np.einsum("ij,ji->i", W, Z), 0.0)
         return var
 
+    def draws(self, c, rng):
+        """``c`` draws of the conditional law of the zero-mean field given zero data (``(n, c)``, units of ``s``).
+
+        ``W = B' z`` has covariance ``Q``, so ``E = Q_ff^-1 W_f`` (zero where observed exactly, and on the
+        rows) has covariance ``Q_ff^-1``; with noise, ``P^-1 (W + H' e / eta)`` has covariance ``P^-1``.
+        """
+        if self.B is None:
+            raise OptionError("drawing needs a root of the precision, and this one has none; use a triangle mesh")
+        W = self.B.T @ rng.standard_normal((self.B.shape[0], c))
+        if self.eta is None:
+            E = self._qs.solve(np.zeros((self.k, c)), linear=-W,
+                               beq=None if self.rows is None else np.zeros((self.rows.shape[0], c)))
+            return E if E.ndim == 2 else E[:, None]
+        W = W + self.H.T @ (rng.standard_normal((self.m, c)) / np.sqrt(self.eta)[:, None])
+        E, _ = self._backend.solve(W)
+        return np.asarray(E).reshape(self.n, c)
+
     def _sampled(self, S, seed):
         rng = np.random.default_rng(seed)
         M = self.Q if self.eta is None else self.P  # the precision of the law sampled
@@ -223,15 +240,7 @@ class Conditional:
         done = 0
         while done < S:
             c = min(_CHUNK, S - done)
-            W = self.B.T @ rng.standard_normal((self.B.shape[0], c))
-            if self.eta is None:
-                E = self._qs.solve(np.zeros((self.k, c)), linear=-W,
-                                   beq=None if self.rows is None else np.zeros((self.rows.shape[0], c)))
-                E = E if E.ndim == 2 else E[:, None]
-            else:
-                W = W + self.H.T @ (rng.standard_normal((self.m, c)) / np.sqrt(self.eta)[:, None])
-                E, _ = self._backend.solve(W)
-                E = np.asarray(E).reshape(self.n, c)
+            E = self.draws(c, rng)
             R = E - (M @ E) / d[:, None]
             R[touched] = E[touched]
             R2 = R * R

@@ -24,12 +24,13 @@ import scipy.sparse as sp
 from ..errors import OptionError, SampleError
 from ..linalg.energies import polyharmonic_energy
 from ..linalg.gp import as_gp_options, gp_condition, intrinsic_std
+from ..linalg.gpdraws import posterior_draws
 from ..linalg.spde import MaternShape
 from ..mesh.laplacian import mass_matrix
 from ..mesh.roots import gradient_root, laplacian_root
 from ..mesh.topology import pattern_components
 
-__all__ = ["VARIANCE_OPTIONS", "reconstruct_gp", "energy_uncertainty", "trust_mask"]
+__all__ = ["VARIANCE_OPTIONS", "gp_draws", "reconstruct_gp", "energy_uncertainty", "trust_mask"]
 
 #: The ``gp=`` options an energy method's ``uncertainty=True`` takes (how its variance is computed).
 VARIANCE_OPTIONS = ("variance", "samples", "seed")
@@ -51,6 +52,30 @@ def trust_mask(values, std, sample_vals, trust, untrusted="mask"):
         values = values.copy()
         values[std > threshold[None, :]] = np.nan
     return values, ok, threshold.tolist()
+
+
+def gp_draws(result, draws, seed=0):
+    """``(n, p, draws)`` posterior draws of a ``method='gp'`` result on a triangle surface (its fitted model).
+
+    The model is rebuilt from the result's mesh, samples' locations and reported hyperparameters
+    (:func:`manifill.linalg.gp.posterior_draws`); the draws equal the samples where they were observed exactly.
+    """
+    from .points import point_samples
+    from .surface import Surface
+
+    rep = result.report["gp"]
+    V, F = result.V, result.F
+    surface = Surface.from_mesh(V, F)
+    shape = MaternShape(surface.laplacian("cotan"), mass_matrix(V, F, mass="barycentric").diagonal(),
+                        gradient_root(V, F), rep["alpha"], 2)
+    points = None
+    if result.points is not None:
+        located = result.points
+        points = point_samples(V, F, located.points, np.zeros(len(located.points)), duplicates="mean",
+                               located=located)
+    oidx, rows, _ = _observations(points, result.idx, np.zeros((len(result.idx), 1)))
+    X = np.asarray(result.values, dtype=np.float64).reshape(len(V), -1)
+    return posterior_draws(shape, oidx, rows, X, rep, draws, seed)
 
 
 def _lengths(V, F):

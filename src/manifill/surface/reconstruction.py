@@ -71,10 +71,44 @@ class Reconstruction(Result):
     trusted: np.ndarray = None
     names: list = None
     source: object = None
+    #: the method that made it (its :meth:`draws` for :meth:`sample`); not a field of the result's files
+    made_by: object = field(default=None, repr=False, compare=False)
 
     def _domain(self):
         kind = "vertices" if self.F is not None else "surface voxels"
         return f"{len(self.values):,} {kind}, {0 if self.idx is None else len(self.idx):,} samples"
+
+    def sample(self, count, *, seed=0):
+        """Draws of the field from its posterior (``method='gp'``), for propagating the uncertainty onwards.
+
+        Each draw is a whole field, consistent with the samples (equal to them where they were observed
+        exactly) and as uncertain as :attr:`std` says: their spread over many draws is the std.
+
+        Parameters
+        ----------
+        count : int
+            How many draws.
+        seed : int, optional
+            The same seed gives the same draws.
+
+        Returns
+        -------
+        (n, count) or (n, p, count) numpy array
+            As :attr:`values` with one more axis, the draws last (as scikit-learn's ``sample_y``).
+
+        Raises
+        ------
+        OptionError
+            For a method without a fitted probability model, or a count below 1.
+        """
+        count = int(count)
+        if count < 1:
+            raise OptionError(f"count={count} draws: pass 1 or more")
+        if self.made_by is None:
+            raise OptionError("this result does not know the method that made it (built by hand?); reconstruct "
+                              "with method='gp' to draw from its posterior")
+        out = self.made_by.draws(self, count, seed)
+        return out[:, 0, :] if np.ndim(self.values) == 1 else out
 
     def at(self, points, *, return_std=False, max_distance=None):
         """The fields at points on (or near) the surface, linear on each triangle.

@@ -107,6 +107,10 @@ class Method:
         """``(std, report)`` of the result read as a Gaussian field (methods with ``gives_std``)."""
         raise OptionError(f"method={self.name!r} has no probability model for a std")
 
+    def draws(self, result, count, seed):
+        """``(n, p, count)`` draws of the posterior field of ``result`` (methods with a fitted probability model)."""
+        raise OptionError(f"method={self.name!r} has no fitted probability model to draw from; use method='gp'")
+
     def reconstruct(self, run):
         """The whole reconstruction for one :class:`Run` (a method that delegates overrides this)."""
         values, std = self.fill(run)
@@ -221,7 +225,8 @@ class Run:
         s = self.surface
         return Reconstruction(values=values, curves=self.curves, components=self.components, on_curve=self.on_curve,
                               levels=[c.levels for c in self.checks], report=report, V=s.V, F=s.F, idx=self.idx,
-                              points=None if points is None else points.located, std=std, trusted=trusted)
+                              points=None if points is None else points.located, std=std, trusted=trusted,
+                              made_by=method)
 
 
 

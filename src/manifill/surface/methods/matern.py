@@ -9,7 +9,7 @@ range, sigma and noise are all given.
 
 from ...errors import OptionError
 from ...linalg.gp import as_gp_options
-from ..gp import reconstruct_gp
+from ..gp import gp_draws, reconstruct_gp
 from .base import Method
 
 __all__ = ["GP", "Matern"]
@@ -45,6 +45,11 @@ class Matern(Method):
                                                            weights=o.fill.weights, solver=o.fill.solver,
                                                            points=run.points, with_std=o.uq.uncertainty)
         return values, std
+
+    def draws(self, result, count, seed):
+        if result.F is None:
+            raise OptionError("drawing from a gp needs the triangle mesh it ran on")
+        return gp_draws(result, count, seed)
 
 
 GP = Matern()

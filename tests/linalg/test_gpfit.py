@@ -150,3 +150,30 @@ def test_fit_range_without_noise_profiles_the_scale():
     assert 1 / 1.5 < fit["kappa"] / 3.0 < 1.5, fit
     lik = Likelihood(_matern1(P, fit["kappa"]), y)
     assert math.isclose(fit["s2"][0], lik.profiled(0.0, 0)[1], rel_tol=1e-12)
+
+
+@pytest.mark.parametrize("alpha", [1, 2])
+@pytest.mark.parametrize("kappa", [0.5, 3.0])
+@pytest.mark.parametrize("mean", ["constant", 0.3])
+def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean):
+    """log det R = log det Q_ff - log det Q and R^-1 = the Schur complement: the kriging form's value exactly."""
+    from manifill.linalg.factorise import factorise
+    from manifill.linalg.gaussian import observation_matrix
+    from manifill.linalg.sparselik import VertexLikelihood
+    from manifill.linalg.spde import MaternShape
+    from manifill.mesh.laplacian import laplacian, mass_matrix
+    from manifill.mesh.roots import gradient_root
+    from manifill.mesh.shapes import icosphere
+
+    rng = np.random.default_rng(1)
+    V, F = icosphere(3)
+    V = V * (1 + 0.05 * rng.normal(size=(len(V), 1)))
+    idx = np.sort(rng.choice(len(V), 60, replace=False))
+    Y = np.column_stack([np.sin(2 * V[idx, 0]), V[idx, 1]])
+    shape = MaternShape(laplacian(V, F), mass_matrix(V, F, mass="barycentric").diagonal(), gradient_root(V, F),
+                        alpha, 2)
+    R = shape.covariance_at(kappa, observation_matrix(shape.n, idx, None), factorise(shape.K(kappa).tocsc())[1])
+    dense, sparse = Likelihood(R, Y, mean), VertexLikelihood(shape, kappa, idx, Y, mean)
+    for j in range(2):
+        (v0, s0), (v1, s1) = dense.profiled(0.0, j), sparse.profiled(0.0, j)
+        assert v1 == pytest.approx(v0, rel=1e-10, abs=1e-9) and s1 == pytest.approx(s0, rel=1e-10)

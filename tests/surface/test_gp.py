@@ -444,3 +444,23 @@ def test_draws_carry_the_uncertainty_of_the_estimated_mean():
     D = r.sample(1000, seed=1)
     free = r.std > 1e-6 * r.std.max()
     assert abs(np.median(D.std(axis=1)[free] / r.std[free]) - 1.0) < 0.03  # without the mean's share: 0.89
+
+
+@pytest.mark.parametrize("mean", ["constant", 0.2])
+def test_the_fit_on_sparse_factors_finds_the_dense_fits_optimum_on_every_sample(mean):
+    # beyond fit_samples the likelihood was that of a random subset of 200; now of every sample, from sparse
+    # factors (log det Q_ff - log det Q, one solve): the same function (tests/linalg/test_gpfit.py), so the same
+    # optimum within the search's tolerance (3% in kappa), here inside the search's bounds
+    V, F = icosphere(3)
+    idx = np.sort(np.random.default_rng(4).choice(len(V), 90, replace=False))
+    vals = np.sin(6 * V[idx, 0]) * np.cos(5 * V[idx, 1])
+    dense = manifill.reconstruct(V, F, idx, vals, method="gp", gp=dict(fit_samples=90, mean=mean))
+    sparse = manifill.reconstruct(V, F, idx, vals, method="gp", gp=dict(fit_samples=89, mean=mean))
+    d, s = dense.report["gp"], sparse.report["gp"]
+    assert d["fit"]["likelihood"] == "dense covariance" and s["fit"]["likelihood"] == "sparse factors"
+    assert s["fit"]["samples"] == 90
+    lo, hi = s["fit"]["range_bounds"]
+    assert lo * 1.1 < s["range"][0] < hi / 1.1  # an optimum inside the bounds: the test has teeth
+    assert s["kappa"][0] == pytest.approx(d["kappa"][0], rel=0.05)
+    assert s["loglik"] == pytest.approx(d["loglik"], abs=0.01)
+    np.testing.assert_allclose(sparse.values, dense.values, rtol=0, atol=0.02 * np.ptp(vals))

@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import OptionError, SampleError
 from .factorise import factorise
 from .gaussian import VARIANCES, Conditional, observation_matrix
+from .sparselik import VertexLikelihood
 from .gpfit import fit_range, matern_correlation
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 
@@ -282,11 +283,11 @@ def _given(opts, prior, p, report):
     return _Hyper([kap] * p, [s2] * p, [0.0 if noise2 is None else float(noise2[j]) for j in range(p)])
 
 
-def _fit_data(Y, opts, positions):
-    """The fit's subset of the samples, each field standardised (see :class:`_FitData`)."""
+def _fit_data(Y, opts, positions, every=False):
+    """The fit's subset of the samples (all of them with ``every``), each field standardised (:class:`_FitData`)."""
     m, p = Y.shape
     sub = np.arange(m)
-    if m > opts.fit_samples:  # drawn in the order of the positions: the same subset however nodes are numbered
+    if m > opts.fit_samples and not every:  # in the order of the positions: the same subset however nodes are numbered
         order = np.arange(m) if positions is None else np.lexsort(np.asarray(positions, dtype=np.float64).T)
         pick = np.random.default_rng(opts.seed).choice(m, opts.fit_samples, replace=False)
         sub = np.sort(order[pick])
@@ -303,23 +304,34 @@ def _fit_data(Y, opts, positions):
 def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
     """The fitted hyperparameters (:class:`_Hyper`); adds ``loglik``, ``fit`` (``fit_start``) and ``fitted``."""
     p = Y.shape[1]
-    data = _fit_data(Y, opts, positions)
+    # exact samples at vertices, many of them: the likelihood of all from sparse factors (sparselik), not of a
+    # subset from its dense covariance
+    every = (rows is None and Y.shape[0] > opts.fit_samples and opts.sigma == "auto" and opts.noise != "auto"
+             and not np.any(_noise2(opts, p)))
+    data = _fit_data(Y, opts, positions, every=every)
     Hs = observation_matrix(shape.n, idx, rows)[data.sub]
 
     def covariance(kap):
         return shape.covariance_at(kap, Hs, factorise(shape.K(kap).tocsc())[1])
+
+    if every:
+        def likelihood(kap, Z):
+            return VertexLikelihood(shape, kap, idx, Z, data.mean)
+    else:
+        likelihood = None
 
     length, diameter = lengths
     bounds = (kappa_from_range(2.0 * diameter, prior.alpha, prior.d),
               kappa_from_range(max(2.0 * length, diameter / 200.0), prior.alpha, prior.d))
     bracket, points = bounds, 7
     if positions is not None and opts.range == "auto" and prior.nu > 0 and opts.sigma == "auto":
-        bracket, points = _near_euclidean(np.asarray(positions, dtype=np.float64)[data.sub], data.Z, bounds,
-                                          prior.nu, data.mean, data.noise2, data.fit_noise, report)
+        near = data if not every else _fit_data(Y, opts, positions)  # the start from a subset's distances
+        bracket, points = _near_euclidean(np.asarray(positions, dtype=np.float64)[near.sub], near.Z, bounds,
+                                          prior.nu, near.mean, near.noise2, near.fit_noise, report)
     hyper = _Hyper([None] * p, [None] * p, [0.0] * p)
     fits = []
     for cols in _field_sets(opts, p):
-        fit = _fit_fields(covariance, data, cols, opts, prior, (bounds, bracket, points))
+        fit = _fit_fields(covariance, data, cols, opts, prior, (bounds, bracket, points), likelihood)
         for i, j in enumerate(cols):
             hyper.kappa[j] = fit["kappa"]
             s2, hyper.n2[j] = fit["s2"][i] * data.unit[j] ** 2, fit["noise2"][i] * data.unit[j] ** 2
@@ -330,14 +342,15 @@ def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
         fit["loglik"] -= dof * float(np.log(data.unit[cols]).sum())
         fits.append(fit)
     report["loglik"] = float(sum(f["loglik"] for f in fits))
-    report["fit"] = {"samples": int(data.sub.size), "evaluations": int(sum(f["evaluations"] for f in fits)),
+    report["fit"] = {"samples": int(data.sub.size), "likelihood": "sparse factors" if every else "dense covariance",
+                     "evaluations": int(sum(f["evaluations"] for f in fits)),
                      "range_bounds": [range_from_kappa(b, prior.alpha, prior.d) for b in bounds[::-1]],
                      "criterion": "restricted likelihood" if opts.mean == "constant" else "likelihood"}
     report["fitted"] = [name for name in ("range", "sigma", "noise") if getattr(opts, name) == "auto"]
     return hyper
 
 
-def _fit_fields(covariance, data, cols, opts, prior, search):
+def _fit_fields(covariance, data, cols, opts, prior, search, likelihood=None):
     """The likelihood fit of the columns ``cols`` (one :func:`manifill.linalg.gpfit.fit_range` answer).
 
     ``search`` is ``(bounds, bracket, points)``: the whole interval of ``kappa``, the bracket
@@ -353,7 +366,8 @@ def _fit_fields(covariance, data, cols, opts, prior, search):
                          s2=lambda kap: (prior.s2_of_sigma(opts.sigma, kap) / data.unit ** 2)[cols],
                          noise2=noise2, fit_noise=data.fit_noise)
     s2_given = None if not fixed_s2 else (prior.s2_of_sigma(opts.sigma, given_k) / data.unit ** 2)[cols]
-    kw = dict(mean=data.mean, s2=s2_given, noise2=noise2, fit_noise=data.fit_noise, kappa=given_k)
+    lik = None if likelihood is None else (lambda kap: likelihood(kap, Z))
+    kw = dict(mean=data.mean, s2=s2_given, noise2=noise2, fit_noise=data.fit_noise, kappa=given_k, likelihood=lik)
     fit = fit_range(covariance, Z, bracket, points=points, **kw)
     # at an edge of the bracket that is not an end of the whole interval: search it all
     inner = [b for b, f in zip(bracket, bounds) if abs(math.log(b / f)) > 1e-9]

@@ -107,14 +107,14 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
     value : float
     params : list of (s2, noise2) per field in ``cols``
     """
-    scale = float(np.mean(lik.lam))
-    lo, hi = math.log(scale * 1e-8), math.log(scale * 10.0)
     if noise2 is not None and not fit_noise and not np.any(np.asarray(noise2)[cols]):
         noise2 = None  # no noise: the scale in closed form, whatever the units of R
+    if s2 is None and noise2 is None and not fit_noise:  # the scale profiled, no noise
+        out = [lik.profiled(0.0, j) for j in cols]
+        return sum(o[0] for o in out), [(o[1], 0.0) for o in out]
+    scale = float(np.mean(lik.lam))  # the searches below are in the units of R
+    lo, hi = math.log(scale * 1e-8), math.log(scale * 10.0)
     if s2 is None and (noise2 is None or fit_noise):  # scale profiled; the noise ratio shared by cols
-        if not fit_noise:
-            out = [lik.profiled(0.0, j) for j in cols]
-            return sum(o[0] for o in out), [(o[1], 0.0) for o in out]
 
         def total(le):
             return sum(lik.profiled(math.exp(le), j)[0] for j in cols)
@@ -149,7 +149,7 @@ def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):
 
 
 def fit_range(covariance, Y, kappa_bounds, *, mean="constant", s2=None, noise2=None, fit_noise=False,
-              kappa=None, points=7):
+              kappa=None, points=7, likelihood=None):
     """Fit ``kappa`` (unless given) and the scales and noise of the fields ``Y`` together.
 
     Parameters
@@ -163,6 +163,9 @@ def fit_range(covariance, Y, kappa_bounds, *, mean="constant", s2=None, noise2=N
         Known ``kappa``: only the scales and the noise are fitted.
     points : int, optional
         The grid of ``log kappa`` before Brent's refinement.
+    likelihood : callable, optional
+        ``kappa -> `` an object with :class:`Likelihood`'s ``profiled`` and ``dof`` (exact samples, the scale
+        profiled: :class:`manifill.linalg.sparselik.VertexLikelihood`), instead of ``Likelihood(covariance(kappa))``.
     mean, s2, noise2, fit_noise
         As :class:`Likelihood` and :func:`restricted_loglik`; ``s2`` may also be a function
         of ``kappa`` (a given marginal sigma fixes the scale at each ``kappa``).
@@ -178,8 +181,7 @@ def fit_range(covariance, Y, kappa_bounds, *, mean="constant", s2=None, noise2=N
     cache = {}
 
     def objective(lk):
-        R = covariance(math.exp(lk))
-        lik = Likelihood(R, Y, mean)
+        lik = Likelihood(covariance(math.exp(lk)), Y, mean) if likelihood is None else likelihood(math.exp(lk))
         s = s2(math.exp(lk)) if callable(s2) else s2  # a given sigma makes the scale follow kappa
         v, params = restricted_loglik(lik, cols, s2=s, noise2=noise2, fit_noise=fit_noise)
         cache[lk] = (v, params)

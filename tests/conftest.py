@@ -318,6 +318,7 @@ def bars(monkeypatch):
 #: What a skipped test needs -> how to get it.
 INSTALLS = {
     "pypardiso": "pip install -e '.[fast]'",
+    "scikit-sparse": "apt-get install libsuitesparse-dev && pip install -e '.[cholmod]'",
     "igl": "pip install -e '.[volume]' (libigl)",
     "tetgen": "pip install -e '.[volume]' (tetgen)",
     "pyvista": "pip install -e '.[viz]'",

@@ -152,14 +152,15 @@ def test_fit_range_without_noise_profiles_the_scale():
     assert math.isclose(fit["s2"][0], lik.profiled(0.0, 0)[1], rel_tol=1e-12)
 
 
+@pytest.mark.parametrize("factoriser", ["superlu", "cholmod"])
 @pytest.mark.parametrize("alpha", [1, 2])
 @pytest.mark.parametrize("kappa", [0.5, 3.0])
 @pytest.mark.parametrize("mean", ["constant", 0.3])
-def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean):
+def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean, factoriser):
     """log det R = log det Q_ff - log det Q and R^-1 = the Schur complement: the kriging form's value exactly."""
     from manifill.linalg.factorise import factorise
     from manifill.linalg.gaussian import observation_matrix
-    from manifill.linalg.sparselik import VertexLikelihood
+    from manifill.linalg.sparselik import LogdetFactors, VertexLikelihood
     from manifill.linalg.spde import MaternShape
     from manifill.mesh.laplacian import laplacian, mass_matrix
     from manifill.mesh.roots import gradient_root
@@ -173,7 +174,15 @@ def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean):
     shape = MaternShape(laplacian(V, F), mass_matrix(V, F, mass="barycentric").diagonal(), gradient_root(V, F),
                         alpha, 2)
     R = shape.covariance_at(kappa, observation_matrix(shape.n, idx, None), factorise(shape.K(kappa).tocsc())[1])
-    dense, sparse = Likelihood(R, Y, mean), VertexLikelihood(shape, kappa, idx, Y, mean)
+    factors = LogdetFactors()
+    if factoriser == "superlu":
+        factors._cholmod = None  # the pure-pip path
+    elif factors.name != "cholmod":
+        pytest.skip("the [cholmod] extra (scikit-sparse) is not installed")
+    dense = Likelihood(R, Y, mean)
+    sparse = VertexLikelihood(shape, kappa, idx, Y, mean, factors)
+    VertexLikelihood(shape, 2.0 * kappa, idx, Y, mean, factors)  # a second trial reuses the symbolic analysis
+    sparse = VertexLikelihood(shape, kappa, idx, Y, mean, factors)
     for j in range(2):
         (v0, s0), (v1, s1) = dense.profiled(0.0, j), sparse.profiled(0.0, j)
         assert v1 == pytest.approx(v0, rel=1e-10, abs=1e-9) and s1 == pytest.approx(s0, rel=1e-10)

@@ -457,7 +457,7 @@ def test_the_fit_on_sparse_factors_finds_the_dense_fits_optimum_on_every_sample(
     dense = manifill.reconstruct(V, F, idx, vals, method="gp", gp=dict(fit_samples=90, mean=mean))
     sparse = manifill.reconstruct(V, F, idx, vals, method="gp", gp=dict(fit_samples=89, mean=mean))
     d, s = dense.report["gp"], sparse.report["gp"]
-    assert d["fit"]["likelihood"] == "dense covariance" and s["fit"]["likelihood"] == "sparse factors"
+    assert d["fit"]["likelihood"] == "dense covariance" and s["fit"]["likelihood"].startswith("sparse factors")
     assert s["fit"]["samples"] == 90
     lo, hi = s["fit"]["range_bounds"]
     assert lo * 1.1 < s["range"][0] < hi / 1.1  # an optimum inside the bounds: the test has teeth

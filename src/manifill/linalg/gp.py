@@ -25,8 +25,8 @@ import numpy as np
 from ..errors import OptionError, SampleError
 from .factorise import factorise
 from .gaussian import VARIANCES, Conditional, observation_matrix
-from .sparselik import VertexLikelihood
-from .gpfit import fit_range, matern_correlation
+from .sparselik import LogdetFactors, VertexLikelihood
+from .gpfit import fit_range, near_euclidean
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 
 __all__ = ["GPOptions", "as_gp_options", "gp_condition", "intrinsic_std"]
@@ -315,8 +315,10 @@ def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
         return shape.covariance_at(kap, Hs, factorise(shape.K(kap).tocsc())[1])
 
     if every:
+        factors = LogdetFactors()
+
         def likelihood(kap, Z):
-            return VertexLikelihood(shape, kap, idx, Z, data.mean)
+            return VertexLikelihood(shape, kap, idx, Z, data.mean, factors)
     else:
         likelihood = None
 
@@ -326,7 +328,7 @@ def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
     bracket, points = bounds, 7
     if positions is not None and opts.range == "auto" and prior.nu > 0 and opts.sigma == "auto":
         near = data if not every else _fit_data(Y, opts, positions)  # the start from a subset's distances
-        bracket, points = _near_euclidean(np.asarray(positions, dtype=np.float64)[near.sub], near.Z, bounds,
+        bracket, points = near_euclidean(np.asarray(positions, dtype=np.float64)[near.sub], near.Z, bounds,
                                           prior.nu, near.mean, near.noise2, near.fit_noise, report)
     hyper = _Hyper([None] * p, [None] * p, [0.0] * p)
     fits = []
@@ -342,7 +344,8 @@ def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
         fit["loglik"] -= dof * float(np.log(data.unit[cols]).sum())
         fits.append(fit)
     report["loglik"] = float(sum(f["loglik"] for f in fits))
-    report["fit"] = {"samples": int(data.sub.size), "likelihood": "sparse factors" if every else "dense covariance",
+    report["fit"] = {"samples": int(data.sub.size),
+                     "likelihood": f"sparse factors ({factors.name})" if every else "dense covariance",
                      "evaluations": int(sum(f["evaluations"] for f in fits)),
                      "range_bounds": [range_from_kappa(b, prior.alpha, prior.d) for b in bounds[::-1]],
                      "criterion": "restricted likelihood" if opts.mean == "constant" else "likelihood"}
@@ -450,19 +453,6 @@ def _variance_summary(infos):
         if key in out:
             out[key] = float(max(i[key] for i in infos))
     return out
-
-
-def _near_euclidean(P, Y, bounds, v, mean, noise2, fit_noise, report):
-    """``(bounds, grid points)`` for the mesh's search: within a factor 2 of the straight-line Matérn fit."""
-    D = np.linalg.norm(P[:, None, :] - P[None, :, :], axis=-1)
-    fit = fit_range(lambda kap: matern_correlation(D, kap, v), Y, bounds, mean=mean, noise2=noise2,
-                    fit_noise=fit_noise)
-    k0 = fit["kappa"]
-    lo, hi = max(bounds[0], k0 / 2.0), min(bounds[1], k0 * 2.0)
-    report["fit_start"] = {"kappa": k0, "from": "straight-line distances", "bracket": [lo, hi]}
-    if not lo < hi:
-        return bounds, 7
-    return (lo, hi), 3
 
 
 def _many_rhs(solver):

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.special import gamma, kv
 
-__all__ = ["Likelihood", "bounded_search", "restricted_loglik", "fit_range", "matern_correlation"]
+__all__ = ["Likelihood", "bounded_search", "restricted_loglik", "fit_range", "matern_correlation", "near_euclidean"]
 
 _LOG2PI = math.log(2.0 * math.pi)
 
@@ -211,3 +211,16 @@ def matern_correlation(D, kappa, nu):
     x = np.maximum(np.asarray(D, dtype=np.float64) * kappa, 1e-300)
     c = (2.0 ** (1.0 - nu) / gamma(nu)) * x ** nu * kv(nu, x)
     return np.where(np.asarray(D) == 0, 1.0, c)
+
+
+def near_euclidean(P, Y, bounds, v, mean, noise2, fit_noise, report):
+    """``(bounds, grid points)`` for the mesh's search: within a factor 2 of the straight-line Matérn fit."""
+    D = np.linalg.norm(P[:, None, :] - P[None, :, :], axis=-1)
+    fit = fit_range(lambda kap: matern_correlation(D, kap, v), Y, bounds, mean=mean, noise2=noise2,
+                    fit_noise=fit_noise)
+    k0 = fit["kappa"]
+    lo, hi = max(bounds[0], k0 / 2.0), min(bounds[1], k0 * 2.0)
+    report["fit_start"] = {"kappa": k0, "from": "straight-line distances", "bracket": [lo, hi]}
+    if not lo < hi:
+        return bounds, 7
+    return (lo, hi), 3

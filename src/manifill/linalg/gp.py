@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import OptionError, SampleError
 from .factorise import factorise
 from .gaussian import VARIANCES, Conditional, observation_matrix
-from .sparselik import LogdetFactors, VertexLikelihood
+from .sparselik import LogdetFactors, VertexLikelihood, sparse_fit_pays
 from .gpfit import fit_range, near_euclidean
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 
@@ -307,7 +307,7 @@ def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
     # exact samples at vertices, many of them: the likelihood of all from sparse factors (sparselik), not of a
     # subset from its dense covariance
     every = (rows is None and Y.shape[0] > opts.fit_samples and opts.sigma == "auto" and opts.noise != "auto"
-             and not np.any(_noise2(opts, p)))
+             and not np.any(_noise2(opts, p)) and sparse_fit_pays())
     data = _fit_data(Y, opts, positions, every=every)
     Hs = observation_matrix(shape.n, idx, rows)[data.sub]
 

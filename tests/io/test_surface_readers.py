@@ -100,8 +100,8 @@ def test_ascii_stls_as_editors_and_exporters_write_them_read(tmp_path):
     (lambda t: t.replace(b"vertex", b"vertex abc", 1), r"whose line 4 holds 4 numbers where 3 belong"),
     (lambda t: t.replace(b"vertex ", b"vertex x", 1), r"whose line 4 holds 'x\S*', not a number"),
     (lambda t: t.replace(b"endloop", b"endlop", 1), r"whose line 7 holds 'endlop', not an STL keyword"),
-    (lambda t: b"\n".join(t.split(b"\n")[:3] + t.split(b"\n")[4:]), r"whose line 8 holds 'facet' after 2 vertices of the facet of "
-                                                  r"line 2; 3 belong"),
+    (lambda t: b"\n".join(t.split(b"\n")[:3] + t.split(b"\n")[4:]),  # the first facet's first vertex deleted
+     r"whose line 8 holds 'facet' after 2 vertices of the facet of line 2; 3 belong"),
     (lambda t: t[:t.index(b"endloop", 2000)], r"ends inside the facet of line \d+, after 3 of its vertices\); the "
                                               r"file is truncated"),
     (lambda t: t[:40] + b"\xff\xfe" + t[40:], r"whose line 2 holds bytes that are not text"),

@@ -255,3 +255,31 @@ def test_variance_options_reach_an_energy_method(tmp_path, capsys, mesh):
     assert r.report["uncertainty"]["variance"]["samples"] == 20
     np.testing.assert_allclose(meshio.read(out).point_data["t_std"], r.std, rtol=1e-10, atol=1e-12)
     assert "variance sampled (20 Monte Carlo samples" in text
+
+
+def test_draws_are_written_beside_the_std_and_go_through_the_samples(tmp_path, capsys, mesh):
+    out = tmp_path / "draws.vtu"
+    code, text, err = run(capsys, "reconstruct", mesh["path"], mesh["two"], "-o", out, "--method", "gp",
+                          "--draws", "3")
+    assert code == 0, err
+    data = meshio.read(out).point_data
+    names = [f"{f}_draw{i}" for f in "tu" for i in (1, 2, 3)]
+    assert set(names) <= set(data) and "t_draw4" not in data
+    r = manifill.reconstruct(mesh["V"], mesh["F"], mesh["idx"], np.column_stack([mesh["t"], 3 * mesh["t"] + 1]),
+                             method="gp")
+    D = r.sample(3, seed=0)  # the library's draws, seed 0
+    for j, f in enumerate("tu"):
+        for i in range(3):
+            np.testing.assert_allclose(data[f"{f}_draw{i + 1}"], D[:, j, i], rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(data[f"{f}_draw{i + 1}"][mesh["idx"]], data[f][mesh["idx"]], atol=1e-10)
+    assert not np.allclose(data["t_draw1"], data["t_draw2"])
+
+
+@pytest.mark.parametrize("extra, says", [((), "--draws takes whole fields from a fitted posterior, which --method "
+                                              "harmonic has not; add --method gp"),
+                                         (("--subdivide", "1"), "--draws and --subdivide")])
+def test_draws_are_refused_where_there_is_no_posterior(tmp_path, capsys, mesh, extra, says):
+    method = ("--method", "gp") if extra else ("--method", "harmonic")
+    line = assert_usage_error(*run(capsys, "reconstruct", mesh["path"], mesh["one"], "-o", tmp_path / "x.vtu",
+                                   *method, "--draws", "2", *extra))
+    assert says in line and not (tmp_path / "x.vtu").exists()

@@ -435,9 +435,11 @@ def uncertainty_opts(args, *, in_solid=False):
 
 
 def std_names(args, names):
-    """The point fields a run adds to ``names``: ``<name>_std`` for each (with a std) and ``trusted`` (--trust)."""
+    """The point fields a run adds to ``names``: ``<name>_std`` for each (with a std), ``<name>_draw<i>``
+    (--draws) and ``trusted`` (--trust)."""
 
     extra = [f"{name}_std" for name in names] if wants_std(args) else []
+    extra += [f"{name}_draw{i + 1}" for name in names for i in range(max(getattr(args, "draws", 0) or 0, 0))]
     return extra + ([TRUSTED] if getattr(args, "trust", None) is not None else [])
 
 

@@ -31,6 +31,9 @@ def add_parser(sub):
     pipeline_args(s)
     energy_args(s)
     uncertainty_args(s)
+    s.add_argument("--draws", type=int, default=0, metavar="N",
+                   help="--method gp: also write N draws of each field from its posterior, <field>_draw1 .. "
+                        "<field>_drawN: whole fields through the samples, for carrying the uncertainty onwards")
     series_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
@@ -55,6 +58,7 @@ def run(args):
     # the methods that take points constrain positions exactly where they are, the others use the nearest vertices
     # (auto hands the positions on: its choice uses them as the library's auto does)
     exact = method_of(options.method).at_points
+    _check_draws(args, options)
     if is_series(args.samples, out, args.chunk):
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
@@ -80,6 +84,9 @@ def run(args):
         bar.close()
     X = r.fields()
     data = r.point_data(S.names)
+    if args.draws:  # whole fields from the posterior, beside the std
+        D = r.sample(args.draws, seed=0).reshape(len(V), len(S.names), args.draws)
+        data.update({f"{name}_draw{i + 1}": D[:, j, i] for j, name in enumerate(S.names) for i in range(args.draws)})
     added = {key: data[key] for key in std_names(args, S.names) if key in data}
     _write(args, out, V, F, X, S, data, added)
     _summary(args, r, V, S)
@@ -88,6 +95,19 @@ def run(args):
     print_ranges(X, S, out)
     pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}", extra=added)
     return 0
+
+
+def _check_draws(args, options):
+    """--draws: a count of 1 or more, with a method that has a fitted probability model (--method gp)."""
+    if not args.draws:
+        return
+    if args.draws < 0:
+        raise OptionError(f"--draws {args.draws}: pass a count of 1 or more")
+    if not method_of(options.method).gp_mean:
+        raise OptionError(f"--draws takes whole fields from a fitted posterior, which --method {options.method} has "
+                          f"not; add --method gp")
+    if args.subdivide:
+        raise OptionError("--draws and --subdivide: the draws are on the mesh as given; leave one out")
 
 
 def _write(args, out, V, F, X, S, data, added):

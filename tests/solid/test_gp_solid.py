@@ -297,3 +297,33 @@ def test_reconstruct_volume_tets_conditions_on_the_surface_samples():
     assert np.allclose(r.values[idx], V[idx, 0]) and r.std[idx].max() < 1e-6
     inner = np.setdiff1d(np.arange(len(r.TV)), np.arange(len(V)))
     assert inner.size and r.std[inner].min() > 0
+
+
+def test_a_voxel_solids_draws_spread_as_its_std_and_go_through_the_samples():
+    g = np.indices((9, 9, 9)).reshape(3, -1).T
+    mask = (np.linalg.norm(g - 4, axis=1) <= 4.2).reshape(9, 9, 9)
+    vox = np.argwhere(mask)[::23]
+    vals = np.sin(vox[:, 0] / 3.0) + vox[:, 2] / 9.0
+    r = gp_voxels(mask, vox, vals, gp=dict(range=4.0, sigma=1.0))
+    D = r.sample(2000, seed=3)
+    assert D.shape == mask.shape + (2000,) and np.isnan(D[~mask]).all()
+    np.testing.assert_allclose(D[tuple(vox.T)], np.repeat(vals[:, None], 2000, axis=1), atol=1e-10)
+    free = mask & (r.std > 1e-6 * np.nanmax(r.std))
+    ratio = D[free].std(axis=1) / r.std[free]
+    assert abs(np.median(ratio) - 1.0) < 0.03
+    np.testing.assert_array_equal(r.sample(5, seed=4), r.sample(5, seed=4))  # the seed repeats them
+    assert not np.allclose(r.sample(5, seed=4)[mask], r.sample(5, seed=5)[mask])
+
+
+def test_a_tet_solids_draws_and_the_refusal_without_a_model():
+    from manifill.solid.volume_result import VolumeReconstruction
+
+    V = np.array([[0., 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2], [0.4, 0.4, 0.4]])
+    T = [[0, 1, 2, 4], [0, 1, 4, 3], [0, 4, 2, 3], [4, 1, 2, 3]]
+    r = gp_tets(V, T, [0, 1, 4], [0.0, 1.0, 2.0], gp={"range": 1.0, "sigma": 1.0})
+    D = r.sample(4000, seed=0)
+    assert D.shape == (5, 4000)
+    np.testing.assert_allclose(D[[0, 1, 4]], np.repeat([[0.0], [1.0], [2.0]], 4000, axis=1), atol=1e-10)
+    assert D[[2, 3]].std(axis=1) == pytest.approx(r.std[[2, 3]], rel=0.06)
+    with pytest.raises(OptionError, match="no fitted probability model"):
+        VolumeReconstruction(np.zeros(3), "tets", None).sample(2)

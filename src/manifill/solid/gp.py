@@ -19,12 +19,15 @@ does on a surface; there is no surface pass and no harmonic fill.
 - :func:`split_gp_options`: the gp options of the ``reconstruct_volume`` functions, refused with other methods.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..errors import OptionError
 from ..linalg.gp import as_gp_options, gp_condition
+from ..linalg.gpdraws import posterior_draws
 from ..linalg.spde import MaternShape
 from ..mesh.roots import edge_root
 from ..surface.gp import trust_mask
@@ -91,6 +94,26 @@ def _posterior(shape, idx, Y, gp, trust, untrusted, solver, length, diameter):
     return X, std, trusted, out
 
 
+@dataclass
+class _Draws:
+    """Posterior draws of a solid's gp (picklable), placed as its ``values``: on the mask for voxels."""
+
+    shape: object
+    idx: np.ndarray
+    X: np.ndarray
+    summary: dict
+    mask: object = None
+    squeeze: bool = False
+
+    def __call__(self, count, seed):
+        D = posterior_draws(self.shape, self.idx, None, self.X, self.summary, count, seed)
+        if self.mask is not None:
+            G = np.full(self.mask.shape + D.shape[1:], np.nan)
+            G[self.mask] = D
+            D = G
+        return D[..., 0, :] if self.squeeze else D
+
+
 def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="auto", duplicates="error"):
     """``method='gp'`` on a tetrahedral mesh: the posterior mean and std at every vertex.
 
@@ -135,12 +158,14 @@ def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="a
     E = T[:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]].reshape(-1, 2)
     length = float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))
     diameter = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-    X, std, trusted, report = _posterior(tet_shape(V, T, opts.alpha), sidx, Y, opts, trust, untrusted, solver,
-                                         length, diameter)
+    shape = tet_shape(V, T, opts.alpha)
+    X, std, trusted, report = _posterior(shape, sidx, Y, opts, trust, untrusted, solver, length, diameter)
     report.update({"vertices": len(V), "tets": len(T), "method": "gp"})
+    drawer = _Draws(shape, sidx, X, report["gp"], squeeze=squeeze)
     if squeeze:
         X, std = X[:, 0], std[:, 0]
-    return VolumeReconstruction(X, "tets", None, TV=V, TT=T, report=report, samples=sidx, std=std, trusted=trusted)
+    return VolumeReconstruction(X, "tets", None, TV=V, TT=T, report=report, samples=sidx, std=std, trusted=trusted,
+                                drawer=drawer)
 
 
 def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6, gp=None,
@@ -183,8 +208,9 @@ def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 
     sidx, Y, squeeze = as_samples(ids[tuple(vox.T)], vals, int(mask.sum()), duplicates=duplicates)
     opts = as_gp_options(gp)
     extent = (np.argwhere(mask).max(axis=0) - np.argwhere(mask).min(axis=0)) * h
-    X, std, trusted, report = _posterior(voxel_shape(mask, h, connectivity, opts.alpha), sidx, Y, opts, trust,
-                                         untrusted, solver, float(np.median(h)), float(np.linalg.norm(extent)))
+    shape = voxel_shape(mask, h, connectivity, opts.alpha)
+    X, std, trusted, report = _posterior(shape, sidx, Y, opts, trust, untrusted, solver, float(np.median(h)),
+                                         float(np.linalg.norm(extent)))
     report.update({"shape": list(mask.shape), "method": "gp"})
     p = X.shape[1]
     values = np.full(mask.shape + (p,), np.nan)
@@ -198,7 +224,8 @@ def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 
         ok[mask] = trusted
     return VolumeReconstruction(values, "voxels", None, mask=mask, spacing=h, origin=as_origin(origin),
                                 fixed=boundary_voxels(mask, connectivity), report=report,
-                                samples=np.argwhere(mask)[sidx], std=sd, trusted=ok)
+                                samples=np.argwhere(mask)[sidx], std=sd, trusted=ok,
+                                drawer=_Draws(shape, sidx, X, report["gp"], mask=mask, squeeze=squeeze))
 
 
 #: The options of the gp in a solid, taken out of the surface options of the ``reconstruct_volume`` functions.

@@ -395,3 +395,28 @@ def test_progress_total_is_the_steps_run(tmp_path, capsys, sphere, bars, method,
     assert code == 0, err
     (bar,) = bars
     assert bar.total == len(bar.steps) and bar.steps[-1] == "fill"
+
+
+def test_volume_draws_of_the_solids_gp_are_written_beside_its_std(tmp_path, capsys):
+    # --draws N on a voxel solid: <field>_draw1..N in the .vti, through the samples; refused without --method gp
+    import pyvista as pv
+
+    from conftest import assert_usage_error, run
+    from manifill.io import write_mesh
+    from manifill.mesh.shapes import icosphere
+
+    V, F = icosphere(2)
+    write_mesh(tmp_path / "m.vtu", V, F)
+    idx = np.arange(0, len(V), 11)
+    (tmp_path / "s.csv").write_text("vertex,t\n" + "".join(f"{i},{float(V[i, 0])!r}\n" for i in idx))
+    code, out, err = run(capsys, "volume", tmp_path / "m.vtu", tmp_path / "s.csv", "-o", tmp_path / "v.vti",
+                         "--method", "gp", "--draws", "2", "--resolution", "12")
+    assert code == 0, err
+    g = pv.read(tmp_path / "v.vti")
+    assert {"t", "t_std", "t_draw1", "t_draw2"} <= set(g.point_data.keys())
+    d1, d2, t = (np.asarray(g.point_data[k]) for k in ("t_draw1", "t_draw2", "t"))
+    inside = np.isfinite(t)
+    assert np.isfinite(d1[inside]).all() and not np.allclose(d1[inside], d2[inside])
+    line = assert_usage_error(*run(capsys, "volume", tmp_path / "m.vtu", tmp_path / "s.csv", "-o",
+                                   tmp_path / "w.vti", "--draws", "2", "--resolution", "12"))
+    assert "which the default method has not; add --method gp" in line and not (tmp_path / "w.vti").exists()

@@ -27,7 +27,7 @@ from ..surface.methods.registry import METHODS, method_of
 
 __all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
            "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
-           "wants_std", "uncertainty_opts", "std_names", "print_uncertainty"]
+           "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws", "add_draws"]
 
 
 def check_order(mesh, samples):
@@ -432,6 +432,28 @@ def uncertainty_opts(args, *, in_solid=False):
     if args.untrusted is not None:
         out["untrusted"] = args.untrusted
     return out
+
+
+def check_draws(args, method):
+    """--draws: a count of 1 or more, with a method that has a fitted probability model (--method gp)."""
+    if not getattr(args, "draws", 0):
+        return
+    if args.draws < 0:
+        raise OptionError(f"--draws {args.draws}: pass a count of 1 or more")
+    if not method_of(method).gp_mean:
+        which = f"--method {method}" if method else "the default method"
+        raise OptionError(f"--draws takes whole fields from a fitted posterior, which {which} has not; add "
+                          f"--method gp")
+
+
+def add_draws(args, r, names, data):
+    """--draws N: ``<name>_draw1 .. N`` into the point data ``data`` (the library's draws, seed 0)."""
+    if not getattr(args, "draws", 0):
+        return
+    D = r.sample(args.draws, seed=0)
+    if len(names) == 1 and D.ndim == r.values.ndim + 1:  # one field: its axis put back
+        D = D[..., None, :]
+    data.update({f"{name}_draw{i + 1}": D[..., j, i] for j, name in enumerate(names) for i in range(args.draws)})
 
 
 def std_names(args, names):

@@ -134,6 +134,9 @@ def uncertainty_args(s):
                         "summary) or auto (default: exact for small meshes)")
     g.add_argument("--variance-samples", type=int, default=None, metavar="N",
                    help="gp: Monte Carlo samples of --variance sampled (default: 100; error about 1/sqrt(N))")
+    g.add_argument("--draws", type=int, default=0, metavar="N",
+                   help="--method gp: also write N draws of each field from its posterior, <field>_draw1 .. "
+                        "<field>_drawN: whole fields through the samples, for carrying the uncertainty onwards")
     g.add_argument("--trust", type=float, default=None, metavar="T",
                    help="mark as untrusted (point field 'trusted' = 0) every vertex where a field's std exceeds T "
                         "times the standard deviation of its samples (implies --uncertainty)")

@@ -9,7 +9,7 @@ from ..mesh.subdivide import check_subdivide, subdivide
 from ..report import value_columns
 from ..surface.methods.registry import configure, method_of
 from ..surface.reconstruct import reconstruct
-from .common import (bounds_arg, check_names, field_list, levels, smoothing_arg, load, pictures, print_ranges,
+from .common import (add_draws, bounds_arg, check_draws, check_names, field_list, levels, smoothing_arg, load, pictures, print_ranges,
                      print_time, step_bar, print_uncertainty, std_names, surface_outputs, uncertainty_opts,
                      write_surface)
 from .series import SERIES_OUTPUTS, is_series, run_series
@@ -31,9 +31,6 @@ def add_parser(sub):
     pipeline_args(s)
     energy_args(s)
     uncertainty_args(s)
-    s.add_argument("--draws", type=int, default=0, metavar="N",
-                   help="--method gp: also write N draws of each field from its posterior, <field>_draw1 .. "
-                        "<field>_drawN: whole fields through the samples, for carrying the uncertainty onwards")
     series_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
@@ -58,7 +55,9 @@ def run(args):
     # the methods that take points constrain positions exactly where they are, the others use the nearest vertices
     # (auto hands the positions on: its choice uses them as the library's auto does)
     exact = method_of(options.method).at_points
-    _check_draws(args, options)
+    check_draws(args, options.method)
+    if args.draws and args.subdivide:
+        raise OptionError("--draws and --subdivide: the draws are on the mesh as given; leave one out")
     if is_series(args.samples, out, args.chunk):
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
@@ -84,9 +83,7 @@ def run(args):
         bar.close()
     X = r.fields()
     data = r.point_data(S.names)
-    if args.draws:  # whole fields from the posterior, beside the std
-        D = r.sample(args.draws, seed=0).reshape(len(V), len(S.names), args.draws)
-        data.update({f"{name}_draw{i + 1}": D[:, j, i] for j, name in enumerate(S.names) for i in range(args.draws)})
+    add_draws(args, r, S.names, data)
     added = {key: data[key] for key in std_names(args, S.names) if key in data}
     _write(args, out, V, F, X, S, data, added)
     _summary(args, r, V, S)
@@ -95,19 +92,6 @@ def run(args):
     print_ranges(X, S, out)
     pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}", extra=added)
     return 0
-
-
-def _check_draws(args, options):
-    """--draws: a count of 1 or more, with a method that has a fitted probability model (--method gp)."""
-    if not args.draws:
-        return
-    if args.draws < 0:
-        raise OptionError(f"--draws {args.draws}: pass a count of 1 or more")
-    if not method_of(options.method).gp_mean:
-        raise OptionError(f"--draws takes whole fields from a fitted posterior, which --method {options.method} has "
-                          f"not; add --method gp")
-    if args.subdivide:
-        raise OptionError("--draws and --subdivide: the draws are on the mesh as given; leave one out")
 
 
 def _write(args, out, V, F, X, S, data, added):

@@ -11,8 +11,8 @@ from ..solid import reconstruct_volume as rv  # called through the module: a tes
 from ..solid.tets import boundary_faces, boundary_vertices
 from ..surface.methods.registry import method_of
 from ..viz.render import render, render_slices
-from .common import (check_names, check_outputs, chosen_field, levels, print_time, print_uncertainty, std_names,
-                     step_bar, uncertainty_opts)
+from .common import (add_draws, check_draws, check_names, check_outputs, chosen_field, levels, print_time,
+                     print_uncertainty, std_names, step_bar, uncertainty_opts)
 from .options import SOLVERS, WEIGHTS, output_args, pipeline_args, uncertainty_args
 
 __all__ = ["add_parser", "run"]
@@ -89,6 +89,7 @@ def run(args):
     out, _ = check_outputs([("-o", args.output, allowed), ("--render", args.render, (".png",))],
                            [args.mesh, args.samples])
     std_opts = uncertainty_opts(args, in_solid=True)
+    check_draws(args, args.method)
     # the mask's digital surface is built without a "graph" step; a surface is first voxelised or tetrahedralised
     solid = {"mask": (), "tets": ()}.get(kind, ("voxelize",) if form == "voxels" else ("tetrahedralize",))
     method = method_of(args.method)
@@ -165,6 +166,7 @@ def _volume_write(args, out, ext, r, S, form):
     """Write the volume result (and its picture), print the summary."""
     X = r.fields()
     data = r.point_data(S.names)
+    add_draws(args, r, S.names, data)
     if form == "voxels":
         # a .npy holds the one field alone
         write_vti(out, data if ext == ".vti" else {S.names[0]: X[..., 0]}, spacing=r.spacing, origin=r.origin)

@@ -25,7 +25,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from .errors import SampleError
+from .errors import OptionError, SampleError
 
 __all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "TRUSTED", "RESERVED_NAMES", "Result",
            "field_names", "with_std", "sample_mask", "register_saver"]
@@ -212,6 +212,38 @@ class Result(ABC):
             The file written (atomically: nothing is left half-written).
         """
         return _SAVER[0](self, path, self.field_names if names is None else names)
+
+    def sample(self, count, *, seed=0):
+        """Draws of the field from its fitted posterior (``method='gp'``), for propagating the uncertainty onwards.
+
+        Each draw is a whole field, consistent with the samples (equal to them where they were observed
+        exactly) and as uncertain as :attr:`std` says: their spread over many draws is the std.
+
+        Parameters
+        ----------
+        count : int
+            How many draws.
+        seed : int, optional
+            The same seed gives the same draws.
+
+        Returns
+        -------
+        numpy array
+            Shaped like :attr:`values` with one more axis, the draws last (as scikit-learn's ``sample_y``).
+
+        Raises
+        ------
+        OptionError
+            Without a fitted probability model, or for a count below 1.
+        """
+        count = int(count)
+        if count < 1:
+            raise OptionError(f"count={count} draws: pass 1 or more")
+        return self._draws(count, seed)
+
+    def _draws(self, count, seed):
+        """The draws of :meth:`sample` (a result with a fitted probability model overrides this)."""
+        raise OptionError("this result has no fitted probability model to draw from; use method='gp'")
 
     def fields(self):
         """``values`` with a last axis per field, also for a single field.

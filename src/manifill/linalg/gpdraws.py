@@ -37,16 +37,19 @@ def posterior_draws(shape, idx, rows, X, summary, draws, seed=0):
     n, p = X.shape
     out = np.empty((n, p, int(draws)))
     known = summary.get("mean_model", "constant") != "constant"
+    laws = {}  # fields sharing kappa and the noise ratio share one conditional law (one factorisation)
     for j in range(p):
         kap, scale, noise = summary["kappa"][j], summary["scale"][j], summary["noise"][j]
         eta = None if noise == 0 or scale == 0 else (noise / scale) ** 2
-        cond = Conditional(shape.precision(kap), shape.root(kap), idx, rows=rows, eta=eta, solver="direct",
-                           definite=True)
-        E = cond.draws(int(draws), rng)
-        if not known:
+        if (kap, eta) not in laws:
+            cond = Conditional(shape.precision(kap), shape.root(kap), idx, rows=rows, eta=eta, solver="direct",
+                               definite=True)
             ones = np.ones((cond.m, 1))
             z = cond.extend(ones)
-            a = float(cond.gram(ones, z)[0, 0])
+            laws[kap, eta] = cond, z, float(cond.gram(ones, z)[0, 0])
+        cond, z, a = laws[kap, eta]
+        E = cond.draws(int(draws), rng)
+        if not known:
             E = E + (1.0 - z) * rng.standard_normal(int(draws))[None, :] / math.sqrt(a)
         out[:, j, :] = X[:, j:j + 1] + scale * E
     return out

@@ -78,20 +78,7 @@ class VolumeReconstruction(Result):
     #: ``(count, seed) ->`` posterior draws shaped like ``values`` plus a draws axis (the solid's gp), or None
     drawer: object = field(default=None, repr=False, compare=False)
 
-    def sample(self, count, *, seed=0):
-        """Draws of the field from the gp's posterior in the solid: ``values``' shape plus a last axis of ``count``.
-
-        As :meth:`manifill.surface.reconstruction.Reconstruction.sample`: whole fields through the samples, their
-        spread the std (NaN outside a voxel solid).
-
-        Raises
-        ------
-        OptionError
-            Without a fitted probability model (only the solid's ``method='gp'`` has one), or a count below 1.
-        """
-        count = int(count)
-        if count < 1:
-            raise OptionError(f"count={count} draws: pass 1 or more")
+    def _draws(self, count, seed):
         if self.drawer is None:
             raise OptionError("this solid has no fitted probability model to draw from; use method='gp' "
                               "(manifill.gp_tets, gp_voxels or reconstruct_volume(..., method='gp'))")

@@ -78,32 +78,7 @@ class Reconstruction(Result):
         kind = "vertices" if self.F is not None else "surface voxels"
         return f"{len(self.values):,} {kind}, {0 if self.idx is None else len(self.idx):,} samples"
 
-    def sample(self, count, *, seed=0):
-        """Draws of the field from its posterior (``method='gp'``), for propagating the uncertainty onwards.
-
-        Each draw is a whole field, consistent with the samples (equal to them where they were observed
-        exactly) and as uncertain as :attr:`std` says: their spread over many draws is the std.
-
-        Parameters
-        ----------
-        count : int
-            How many draws.
-        seed : int, optional
-            The same seed gives the same draws.
-
-        Returns
-        -------
-        (n, count) or (n, p, count) numpy array
-            As :attr:`values` with one more axis, the draws last (as scikit-learn's ``sample_y``).
-
-        Raises
-        ------
-        OptionError
-            For a method without a fitted probability model, or a count below 1.
-        """
-        count = int(count)
-        if count < 1:
-            raise OptionError(f"count={count} draws: pass 1 or more")
+    def _draws(self, count, seed):
         if self.made_by is None:
             raise OptionError("this result does not know the method that made it (built by hand?); reconstruct "
                               "with method='gp' to draw from its posterior")

@@ -31,11 +31,13 @@ def run(level, k, seed=0):
                                                   bounds="samples"))
     fitted_s, fitted = _timed(lambda: manifill.reconstruct(V, F, idx, vals, method="gp"))
     g = fitted.report["gp"]
-    given_s, _ = _timed(lambda: manifill.reconstruct(V, F, idx, vals, method="gp",
-                                                     gp=dict(range=g["range"][0], sigma=g["sigma"][0])))
+    given_s, given = _timed(lambda: manifill.reconstruct(V, F, idx, vals, method="gp",
+                                                         gp=dict(range=g["range"][0], sigma=g["sigma"][0])))
+    var = given.report["gp"]["variance"]
     err = float(np.sqrt(np.mean((fitted.values - f) ** 2)) / np.ptp(f))
     return {"n": len(V), "k": k, "pipeline": pipe, "given": given_s, "fitted": fitted_s, "error": err,
-            "fit_samples": g["fit"]["samples"], "likelihood": g["fit"].get("likelihood", "dense covariance")}
+            "fit_samples": g["fit"]["samples"], "likelihood": g["fit"].get("likelihood", "dense covariance"),
+            "variance": f"{var['how']} {var['seconds']:.2f} s"}
 
 
 def main(argv=None):
@@ -48,7 +50,8 @@ def main(argv=None):
         r = run(level, a.k)
         print(f"{a.label}: n={r['n']:,} k={r['k']}: pipeline {r['pipeline']:.2f} s, gp given {r['given']:.2f} s "
               f"({r['given'] / r['pipeline']:.1f}x), fitted {r['fitted']:.2f} s ({r['fitted'] / r['given']:.2f}x "
-              f"given) on {r['fit_samples']} samples ({r['likelihood']}), rel. RMSE {r['error']:.4f}", flush=True)
+              f"given) on {r['fit_samples']} samples ({r['likelihood']}), rel. RMSE {r['error']:.4f}, "
+              f"variance {r['variance']}", flush=True)
 
 
 if __name__ == "__main__":

@@ -43,6 +43,7 @@ LAZY_IMPORTS = {
     "robust_laplacian": "the [robust] extra",
     "pypardiso": "the [fast] extra (Intel MKL Pardiso, x86-64 only)",
     "sksparse": "the [cholmod] extra (scikit-sparse; builds against SuiteSparse)",
+    "threadpoolctl": "optional ([cholmod], [all]): BLAS held to one thread while a selected inversion runs",
     "trimesh": "never imported by manifill for its own use; a user's object is recognised by its type's module",
     "lz4": "optional: only a VTK XML file compressed with LZ4 needs it",
     "psutil": "installed with distributed only (a batch job's peak memory)",

@@ -57,7 +57,11 @@ def _variance_line(info):
     if how == "sampled":
         return (f"variance sampled ({info.get('samples', '?')} Monte Carlo samples; its relative standard error: "
                 f"median {info.get('rel_se_median', float('nan')):.1%}, "
-                f"largest {info.get('rel_se_max', float('nan')):.1%}; the std's is about half)")
+                f"largest {info.get('rel_se_max', float('nan')):.1%}; the std's is about half)"
+                + (f": {info['why']}" if info.get("why") else ""))
+    if how == "exact" and info.get("factor"):
+        return (f"variance exact (selected inversion of the {info['factor']} Cholesky factor, "
+                f"{info.get('factor_entries', 0):,} entries)")
     return f"variance {how}"
 
 

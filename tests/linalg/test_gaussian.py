@@ -18,6 +18,7 @@ import scipy.sparse as sp
 
 from conftest import icosphere
 from manifill.errors import OptionError
+from manifill.linalg import gaussian
 from manifill.linalg.gaussian import Conditional
 from manifill.linalg.spde import MaternShape
 from manifill.mesh.laplacian import laplacian, mass_matrix
@@ -78,7 +79,7 @@ def test_mean_gram_and_exact_variance_are_dense_conditioning(case, alpha):
     assert np.abs(G - gram).max() < 1e-8 * np.abs(gram).max()
     v, info = c.variance("exact")
     assert info["how"] == "exact"
-    assert np.abs(v - var).max() < 1e-6 * var.max()
+    assert np.abs(v - var).max() < 1e-8 * var.max()
     if eta is None:
         assert np.all(v[IDX] == 0.0)
         free = np.setdiff1d(np.arange(N), IDX)
@@ -178,3 +179,38 @@ def test_refusals():
         with pytest.raises(OptionError) as e:
             call()
         assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("case", ["vertices", "noisy"])
+def test_the_mean_and_the_exact_variance_share_one_cholesky_factor(case, monkeypatch):
+    rows, eta = CASES[case]
+    Q, B = _matern()
+    calls = []
+    real = gaussian.cholesky
+    monkeypatch.setattr(gaussian, "cholesky", lambda *a, **k: calls.append(1) or real(*a, **k))
+    c = Conditional(Q, B, IDX, eta=eta, factoriser="cholesky", solver="direct")
+    Y = np.random.default_rng(2).standard_normal((IDX.size, 1))
+    X = c.extend(Y)
+    v, info = c.variance("exact")
+    assert calls == [] and info["factor"] in ("superlu", "cholmod") and info["factor_entries"] > 0
+    mean, _, var = _oracle(Q, IDX, rows, eta, Y)
+    assert np.abs(X - mean).max() < 1e-8 * np.abs(mean).max()
+    assert np.abs(v - var).max() < 1e-8 * var.max()
+    # without the shared factor, the variance factorises on its own: the same numbers
+    v2, _ = Conditional(Q, B, IDX, eta=eta).variance("exact")
+    assert calls == [1] and np.abs(v2 - v).max() < 1e-10 * v.max()
+
+
+def test_auto_variance_is_exact_with_cholmod_or_small_and_says_why_it_samples(monkeypatch):
+    Q, B = _matern()
+    monkeypatch.setattr(gaussian, "EXACT_MAX", 10)
+    monkeypatch.setattr(gaussian, "cholmod_available", lambda: False)
+    v, info = Conditional(Q, B, IDX).variance("auto", samples=10)
+    assert info["how"] == "sampled" and "[cholmod]" in info["why"] and f"{N - IDX.size:,} unknowns" in info["why"]
+    monkeypatch.setattr(gaussian, "cholmod_available", lambda: True)
+    _, info = Conditional(Q, B, IDX).variance("auto")
+    assert info["how"] == "exact"
+    monkeypatch.setattr(gaussian, "EXACT_MAX", N)
+    monkeypatch.setattr(gaussian, "cholmod_available", lambda: False)
+    _, info = Conditional(Q, B, IDX).variance("auto")
+    assert info["how"] == "exact"

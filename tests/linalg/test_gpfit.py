@@ -186,3 +186,13 @@ def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean, facto
     for j in range(2):
         (v0, s0), (v1, s1) = dense.profiled(0.0, j), sparse.profiled(0.0, j)
         assert v1 == pytest.approx(v0, rel=1e-10, abs=1e-9) and s1 == pytest.approx(s0, rel=1e-10)
+    # the slope from the same factors by selected inversion is the derivative of the value (central differences)
+    sloped = VertexLikelihood(shape, kappa, idx, Y, mean, factors, slope=True)
+    h = 1e-5
+    for j in range(2):
+        up = VertexLikelihood(shape, kappa * math.exp(h), idx, Y, mean, factors).profiled(0.0, j)[0]
+        down = VertexLikelihood(shape, kappa * math.exp(-h), idx, Y, mean, factors).profiled(0.0, j)[0]
+        assert sloped.slope(j) == pytest.approx((up - down) / (2 * h), rel=1e-6, abs=1e-6)
+        assert sloped.profiled(0.0, j)[0] == pytest.approx(sparse.profiled(0.0, j)[0], rel=1e-12)
+    with pytest.raises(ValueError, match="slope=True"):
+        sparse.slope(0)

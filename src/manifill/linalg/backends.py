@@ -96,6 +96,8 @@ class DirectSolver:
                        "use solver='amg' (CLI --solver amg, or --fill-solver amg for a volume fill)")
         self.factoriser, self._lu = factorise(A, factoriser, spd=spd) if n else ("superlu", None)
 
+    factor = property(lambda self: self._lu, doc="The factorisation (``solve(B)``; a selinv ``Factor``: 'cholesky').")
+
     def solve(self, R, x0=None):
         """Solve ``A X = R``.
 
@@ -470,7 +472,7 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
         Change tolerance for ``iterate``.
     maxiter : int, optional
         Iteration cap for ``amg`` and ``iterate``.
-    factoriser : {None, 'superlu', 'pardiso'}, optional
+    factoriser : {None, 'superlu', 'pardiso', 'cholesky'}, optional
         What factorises for ``direct`` (see :func:`manifill.linalg.factorise.factorise`).
     spd : bool, optional
         ``A`` is symmetric positive definite, as every caller's but a KKT system's is

@@ -15,8 +15,10 @@ points inside faces) either exactly (``H x = y``) or with independent noise of v
   (shape), from those solves (``x_u' Q x_v`` with exact data), which gives the
   generalised least squares mean and the fitted scale ``s^2``;
 - :meth:`Conditional.variance`: the diagonal of the conditional covariance (shape),
-  ``exact`` (dense: the inverse of the free block of ``Q``, of its KKT matrix with rows,
-  or of ``Q + H' E^-1 H``) or ``sampled``: the Rao-Blackwellised Monte Carlo estimator
+  ``exact``: the selected inverse (:mod:`manifill.linalg.selinv`) of the sparse Cholesky factor of
+  the free block ``Q_ff`` (exact samples) or of ``P = Q + H' E^-1 H`` (noise), the factor the mean
+  was solved with; exact points inside faces (constraints ``A x_f = b``) subtract the rank-``m``
+  term ``diag(W (A W)^-1 W')``, ``W = Q_ff^-1 A'``; or ``sampled``: the Rao-Blackwellised Monte Carlo estimator
   of Sidén et al. (2018) on conditional samples drawn by perturbation (``Q e = B' w``
   with the constraints, ``w`` white noise: no Cholesky factor is needed). At a node
   ``i`` whose conditional law given the others is ``N(mu_i - sum_j Q_ij e_j / Q_ii,
@@ -31,23 +33,24 @@ import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 
-from ..errors import OptionError, ResourceError, SolveError
-from ..memory import check_fits
+from ..errors import OptionError
 from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
+from .selinv import Factor, SelectedInverse, cholesky, cholmod_available
 
-__all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "observation_matrix"]
+__all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "observation_matrix"]
 
-#: How the variance is computed: ``auto`` is ``exact`` up to :data:`EXACT_MAX` unknowns, ``sampled`` above.
+#: How the variance is computed: ``auto`` is ``exact`` where :func:`exact_by_default` says so, else ``sampled``.
 VARIANCES = ("auto", "exact", "sampled")
 
-#: Largest number of unknowns for which ``variance='auto'`` inverts densely (about 1 s and 0.2 GB at 5,000).
-EXACT_MAX = 5_000
+#: Largest number of unknowns for which ``variance='auto'`` is exact without CHOLMOD (SuperLU's Cholesky
+#: factor: 1.6 s and a selected inversion of 1.3 s at 41k unknowns of a Matérn precision, 13 s and 8.6 s at
+#: 163k, where CHOLMOD took 2.6 s and 2.5 s).
+EXACT_MAX = 50_000
 
-#: Largest number of unknowns ``variance='exact'`` accepts (a dense ``n x n`` inverse in place: 3.2 GB at 20,000;
-#: three such arrays with points inside faces, whose KKT matrix is solved against the identity).
-EXACT_LIMIT = 20_000
+#: Bytes of the ``W = Q_ff^-1 A'`` columns held at once for exact points inside faces (two passes above).
+_W_BYTES = 500_000_000
 
 _CHUNK = 50  # conditional samples solved at once
 
@@ -78,7 +81,8 @@ class Conditional:
         observations is solved too (its conditional law is the prior's).
     """
 
-    def __init__(self, Q, B, idx, *, rows=None, eta=None, solver="auto", tol=None, maxiter=None, definite=False):
+    def __init__(self, Q, B, idx, *, rows=None, eta=None, solver="auto", tol=None, maxiter=None, definite=False,
+                 factoriser=None):
         self.Q = sp.csr_array(Q)
         self.B = None if B is None else sp.csr_array(B)
         self.n = self.Q.shape[0]
@@ -91,8 +95,9 @@ class Conditional:
             self.eta = None
             use = "direct" if rows is not None and solver != "direct" else solver
             self._qs = QuadraticSolver(self.Q, self.idx, solver=use, Aeq=self.rows,
-                                       on_empty="solve" if definite else "error",
-                                       tol=tol, maxiter=maxiter, symmetric_pattern=True, what="the precision")
+                                       on_empty="solve" if definite else "error", tol=tol, maxiter=maxiter,
+                                       symmetric_pattern=True, what="the precision",
+                                       factoriser=factoriser if rows is None else None)
             self.report = {k: v for k, v in self._qs.report.items() if k in ("solver", "unknowns")}
         else:
             self.eta = np.broadcast_to(np.asarray(eta, dtype=np.float64), (self.m,)).copy()
@@ -102,7 +107,8 @@ class Conditional:
             self.P = sp.csr_array(self.Q + self.H.T @ sp.diags_array(1.0 / self.eta) @ self.H)
             self.P.sort_indices()
             rtol = TOL.polyharmonic_rtol if tol is None else tol
-            self._backend = make_linear_solver(self.P, solver, rtol=rtol, maxiter=maxiter)
+            self._backend = make_linear_solver(self.P, solver, rtol=rtol, maxiter=maxiter, factoriser=factoriser,
+                                               spd=True)
             self.report = {"solver": self._backend.name, "unknowns": self.n}
         self.report["setup_seconds"] = time.perf_counter() - t0
 
@@ -158,24 +164,22 @@ class Conditional:
         var : (n,) numpy array
             0 at exactly observed vertices.
         info : dict
-            ``how``, ``seconds``; for ``sampled``: ``samples``, ``se`` ((n,) standard
-            error of ``var``), ``rel_se_median``, ``rel_se_max``.
+            ``how``, ``seconds``; for ``exact``: ``factor`` (what factorised) and ``factor_entries``; for
+            ``sampled``: ``samples``, ``se`` ((n,) standard error of ``var``), ``rel_se_median``,
+            ``rel_se_max``, and ``why`` where ``auto`` chose it.
         """
         if how not in VARIANCES:
             raise OptionError(f"variance={how!r} is not one of {', '.join(VARIANCES)}; pass one of those")
         u = self.unknowns()
+        why = None
         if how == "auto":
-            how = "exact" if u <= EXACT_MAX else "sampled"
+            how = "exact" if exact_by_default(u) else "sampled"
+            if how == "sampled":
+                why = (f"{u:,} unknowns, above {EXACT_MAX:,} without CHOLMOD; the [cholmod] extra makes it exact "
+                       f"(pip install 'manifill[cholmod]', which needs libsuitesparse-dev)")
         t0 = time.perf_counter()
         if how == "exact":
-            need = 8.0 * u * u
-            if u <= EXACT_LIMIT:
-                check_fits(need, f"variance='exact' ({u:,} unknowns, a dense inverse)", "pass variance='sampled'")
-            else:
-                gb = need / 1e9
-                raise ResourceError(f"variance='exact' inverts a dense {u} x {u} matrix ({gb:.1f} GB), beyond "
-                                    f"{EXACT_LIMIT} unknowns; pass variance='sampled'")
-            var, info = self._exact(), {"how": "exact"}
+            var, info = self._exact()
         else:
             samples = int(samples)
             if samples < 2:
@@ -184,33 +188,32 @@ class Conditional:
                 raise OptionError("variance='sampled' needs a root of the precision, and this one has none "
                                   "(a Laplacian with weights of both signs and no triangles); pass variance='exact'")
             var, info = self._sampled(samples, seed)
+            if why:
+                info["why"] = why
         info["seconds"] = time.perf_counter() - t0
         return var, info
 
+    def _factor(self, free):
+        """The Cholesky :class:`~manifill.linalg.selinv.Factor` of the unknowns' precision: the solver's own
+        where it made one (``factoriser='cholesky'``), else a new one."""
+        backend = self._backend if self.eta is not None else self._qs.backend
+        own = getattr(backend, "factor", None)
+        if isinstance(own, Factor) and (self.eta is not None or self.rows is None):
+            return own
+        M = self.P if self.eta is not None else self.Q[free][:, free]
+        return cholesky(M)
+
     def _exact(self):
         var = np.zeros(self.n)
-        if self.eta is not None:
-            var[:] = _inverse_diagonal(self.P.toarray())
-            return var
-        free = np.setdiff1d(np.arange(self.n), self.idx)
+        free = np.arange(self.n) if self.eta is not None else np.setdiff1d(np.arange(self.n), self.idx)
         if free.size == 0:  # every node observed exactly: nothing is uncertain
-            return var
-        Qff = self.Q[free][:, free].toarray()
-        if self.rows is None:
-            var[free] = _inverse_diagonal(Qff)
-            return var
-        # the points inside faces are exact linear constraints A x = b: the covariance is
-        # Qff^-1 - W (A W)^-1 W' with W = Qff^-1 A' (one Cholesky factor; a KKT solve with n right-hand
-        # sides took 60 times as long)
-        A = self.rows[:, free].toarray()
-        c, W = _factor_and_solve(Qff, A.T)
-        S = A @ W
-        try:
-            Z = la.solve(S, W.T, assume_a="pos")
-        except la.LinAlgError:  # points sharing a face row: the constraints are dependent
-            Z = la.pinv(S, rtol=1e-12) @ W.T
-        var[free] = np.maximum(_inverse_diagonal(c, factored=True) - np.einsum("ij,ji->i", W, Z), 0.0)
-        return var
+            return var, {"how": "exact"}
+        f = self._factor(free)
+        var[free] = SelectedInverse(f).diagonal()
+        info = {"how": "exact", "factor": f.name, "factor_entries": int(f.nnz)}
+        if self.eta is None and self.rows is not None:
+            var[free] = np.maximum(var[free] - _constraint_term(f, self.rows[:, free]), 0.0)
+        return var, info
 
     def draws(self, c, rng):
         """``c`` draws of the conditional law of the zero-mean field given zero data (``(n, c)``, units of ``s``).
@@ -265,25 +268,34 @@ def observation_matrix(n, idx, rows=None):
     return E if rows is None else sp.csr_array(sp.vstack([E, sp.csr_array(rows)]))
 
 
-_NOT_DEFINITE = ("the precision is not positive definite to working precision (degenerate elements?); clean the "
-                 "mesh, or pass variance='sampled'")
+def exact_by_default(unknowns):
+    """Whether ``variance='auto'`` is exact: always with CHOLMOD (the ``[cholmod]`` extra), else up to
+    :data:`EXACT_MAX` unknowns (SuperLU's factor; above it a Monte Carlo estimate is faster)."""
+    return unknowns <= EXACT_MAX or cholmod_available()
 
 
-def _factor_and_solve(A, B):
-    """``(c, A^-1 B)`` with ``c`` LAPACK's lower Cholesky factor of ``A``, in ``A``'s own array."""
-    c, info = la.lapack.dpotrf(np.asfortranarray(A), lower=1, overwrite_a=1, clean=0)
-    if info != 0:
-        raise SolveError(_NOT_DEFINITE)
-    X, info = la.lapack.dpotrs(c, np.asfortranarray(B), lower=1)
-    return c, X
+def _constraint_term(f, A):
+    """``diag(W (A W)^+ W')``, ``W = F^-1 A'``: what exact constraints ``A x = b`` take from the variance of a
+    field of precision ``F`` (a pseudo-inverse: points sharing a face row make the constraints dependent)."""
+    n, m = A.shape[1], A.shape[0]
+    chunk = max(1, int(_W_BYTES // (8 * max(n, 1))))
+    At = A.T.tocsc()
+    if m <= chunk:
+        W = f.solve(At.toarray())
+        S = A @ W
+    else:
+        S = np.column_stack([A @ f.solve(At[:, j:j + chunk].toarray()) for j in range(0, m, chunk)])
+    e, U = la.eigh((S + S.T) * 0.5)
+    keep = e > 1e-12 * max(float(e.max()), 0.0)
+    Bm = U[:, keep] / np.sqrt(e[keep])  # S^+ = Bm Bm'
+    if m <= chunk:
+        G = W @ Bm
+        return np.einsum("ij,ij->i", G, G)
+    out = np.zeros(n)
+    G = np.asarray(At @ Bm)  # A' Bm: the rank-m term is rowsum((F^-1 A' Bm)^2)
+    for j in range(0, G.shape[1], chunk):
+        X = f.solve(G[:, j:j + chunk])
+        out += np.einsum("ij,ij->i", X, X)
+    return out
 
 
-def _inverse_diagonal(A, factored=False):
-    """``diag(A^-1)`` of a dense symmetric positive definite ``A`` (Cholesky), or of ``A``'s factor ``c``."""
-    # in place (LAPACK's potrf then potri): one n x n array in all, A's own
-    c, info = (A, 0) if factored else la.lapack.dpotrf(np.asfortranarray(A), lower=1, overwrite_a=1, clean=0)
-    if info == 0:
-        c, info = la.lapack.dpotri(c, lower=1, overwrite_c=1)
-    if info != 0:
-        raise SolveError(_NOT_DEFINITE)
-    return np.diagonal(c).copy()

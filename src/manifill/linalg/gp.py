@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import OptionError, SampleError
 from .factorise import factorise
-from .gaussian import VARIANCES, Conditional, observation_matrix
+from .gaussian import VARIANCES, Conditional, exact_by_default, observation_matrix
 from .sparselik import LogdetFactors, VertexLikelihood, sparse_fit_pays
 from .gpfit import fit_range, near_euclidean
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
@@ -55,8 +55,9 @@ class GPOptions:
         True (default): the fields share the range and the noise-to-signal ratio (one
         precision, one variance computation, scaled per field); False: each field its own.
     variance : {'auto', 'exact', 'sampled'}
-        ``exact``: dense inverse (up to 20,000 unknowns); ``sampled``: a Monte Carlo estimate
-        with its standard error in the report; ``auto``: exact up to 5,000 unknowns.
+        ``exact``: selected inversion of the sparse Cholesky factor (:mod:`manifill.linalg.selinv`);
+        ``sampled``: a Monte Carlo estimate with its standard error in the report; ``auto``: exact with
+        CHOLMOD (the ``[cholmod]`` extra) or up to 50,000 unknowns, sampled above.
     samples : int
         Conditional samples of ``variance='sampled'`` (error about ``1 / sqrt(samples)``).
     seed : int
@@ -401,7 +402,8 @@ def _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report):
     groups = _groups(eta_key)
     for (kap, eta), cols in groups.items():
         Q, B = shape.precision(kap), shape.root(kap)
-        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver), definite=True)
+        cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver), definite=True,
+                           factoriser=_factoriser(with_std, opts.variance, shape.n - (len(idx) if eta is None else 0)))
         data = Y[:, cols] - (float(opts.mean) if known else 0.0)
         Z = cond.extend(np.column_stack([data, np.ones(m)]))
         G = cond.gram(np.column_stack([data, np.ones(m)]), Z)
@@ -455,6 +457,12 @@ def _variance_summary(infos):
     return out
 
 
+def _factoriser(with_std, variance, unknowns):
+    """``cholesky`` where the exact variance will be read from the factor the mean is solved with."""
+    exact = variance == "exact" or (variance == "auto" and exact_by_default(unknowns))
+    return "cholesky" if with_std and exact else None
+
+
 def _many_rhs(solver):
     """``auto`` factorises: the variance takes ``samples`` solves, and CG would pay for each one anew."""
     return "direct" if solver == "auto" else solver
@@ -481,7 +489,8 @@ def intrinsic_std(Q, B, idx, rows, Y, X, *, eta=None, how="auto", samples=100, s
     if m <= components:
         raise SampleError(f"a standard deviation needs more samples than components ({components}), got {m}; "
                           f"add samples")
-    cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver))
+    cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver),
+                       factoriser=_factoriser(True, how, Q.shape[0] - (0 if eta is not None else len(idx))))
     G = cond.gram(Y, X)
     var, info = cond.variance(how, samples=samples, seed=seed)
     scale = [math.sqrt(max(G[j, j] / (m - components), 0.0)) for j in range(p)]

@@ -97,7 +97,7 @@ class QuadraticSolver:
         then factorises).
     what : str, optional
         The name of ``A`` in error messages.
-    factoriser : {None, 'superlu', 'pardiso'}, optional
+    factoriser : {None, 'superlu', 'pardiso', 'cholesky'}, optional
         What factorises for ``direct`` (None: :func:`manifill.linalg.factorise.factorise`'s choice);
         many right-hand sides on small blocks are faster with SuperLU.
 

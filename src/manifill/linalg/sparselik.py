@@ -10,6 +10,11 @@ gives the likelihood of all ``m`` samples, where the kriging form (:mod:`manifil
 ``m x m`` matrix ``R`` by ``m`` solves and so fits on a subset. The value is the same
 (:meth:`manifill.linalg.gpfit.Likelihood.profiled` with no noise, the scale profiled, the mean by REML or
 known).
+
+Its derivative in ``kappa`` (:meth:`VertexLikelihood.slope`) comes from the same factors by selected inversion
+(:mod:`manifill.linalg.selinv`): ``d log det Q_ff = tr(Q_ff^-1 dQ_ff)`` on ``Q``'s pattern, ``d log det K =
+2 kappa sum_i c_i (K^-1)_ii``, and ``d (t' S t) = x' dQ x`` with ``x`` the extension of ``t`` that ``S`` minimises
+(``x_f = -Q_ff^-1 Q_fs t``), with ``dQ = 4 kappa K`` (``alpha = 2``) or ``2 kappa C``.
 """
 
 import math
@@ -19,6 +24,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
+from .selinv import Factor, SelectedInverse, cholesky
 
 __all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood"]
 
@@ -72,9 +78,13 @@ class LogdetFactors:
         self._symbolic = {}
         self.name = "cholmod" if self._cholmod is not None else "superlu"
 
-    def factor(self, key, A):
-        """``(solve, log det A)`` of the symmetric positive definite ``A``, whose pattern is named ``key``."""
+    def factor(self, key, A, selected=False):
+        """``(solve, log det A)`` of the symmetric positive definite ``A``, whose pattern is named ``key``; with
+        ``selected``, the first is a :class:`manifill.linalg.selinv.Factor` (for a selected inversion)."""
         if self._cholmod is None:
+            if selected:
+                f = cholesky(A, backend="superlu")
+                return f, f.logdet
             lu, ld = spd_logdet(A)
             return lu.solve, ld
         A = sp.csc_matrix(A)
@@ -85,7 +95,10 @@ class LogdetFactors:
         except self._cholmod.CholmodNotPositiveDefiniteError:
             raise SolveError("the precision is not positive definite to working precision (degenerate "
                              "elements?); clean the mesh") from None
+        if selected:
+            return Factor(f.L(), f.P(), "cholmod", f.solve_A), float(f.logdet())
         return f, float(f.logdet())
+
 
 
 class VertexLikelihood:
@@ -104,7 +117,7 @@ class VertexLikelihood:
         Shared by the trials of one fit (CHOLMOD's symbolic analyses are kept there).
     """
 
-    def __init__(self, shape, kappa, idx, Y, mean="constant", factors=None):
+    def __init__(self, shape, kappa, idx, Y, mean="constant", factors=None, slope=False):
         factors = LogdetFactors() if factors is None else factors
         n = shape.n
         free = np.setdiff1d(np.arange(n), idx)
@@ -112,16 +125,27 @@ class VertexLikelihood:
         Qff = Q[free][:, free]
         Qsf = sp.csr_array(Q[idx][:, free])
         Qss = Q[idx][:, idx]
-        solve_ff, ld_ff = factors.factor("Q_ff", Qff)
-        _, ld_k = factors.factor("K", shape.K(kappa))
+        f_ff, ld_ff = factors.factor("Q_ff", Qff, selected=slope)
+        f_k, ld_k = factors.factor("K", shape.K(kappa), selected=slope)
         ld_q = ld_k if shape.alpha == 1 else 2.0 * ld_k - float(np.log(shape.c).sum())
         self.logdet_r = ld_ff - ld_q
         self.m = len(idx)
         self.known = not isinstance(mean, str)
         Y = np.asarray(Y, dtype=np.float64).reshape(self.m, -1) - (float(mean) if self.known else 0.0)
         T = np.column_stack([np.ones(self.m), Y])
-        ST = Qss @ T - Qsf @ np.asarray(solve_ff(np.asarray(Qsf.T @ T))).reshape(len(free), -1)
-        self.G = T.T @ ST  # [1 Y]' S [1 Y]
+        solve_ff = f_ff.solve if slope else f_ff
+        Xf = -np.asarray(solve_ff(np.asarray(Qsf.T @ T))).reshape(len(free), -1)
+        self.G = T.T @ (Qss @ T + Qsf @ Xf)  # [1 Y]' S [1 Y]
+        self.kappa = kappa
+        self.dG = self.dlogdet_r = None
+        if slope:
+            dQ = shape.dprecision(kappa)
+            X = np.empty((n, T.shape[1]))
+            X[idx], X[free] = T, Xf
+            self.dG = X.T @ (dQ @ X)  # d/dkappa of [1 Y]' S [1 Y]
+            tr_ff = SelectedInverse(f_ff).trace_product(dQ[free][:, free])
+            dld_k = 2.0 * kappa * float(shape.c @ SelectedInverse(f_k).diagonal())
+            self.dlogdet_r = tr_ff - (dld_k if shape.alpha == 1 else 2.0 * dld_k)
 
     def dof(self):
         """Degrees of freedom of the scale: ``m - 1`` (REML) or ``m``."""
@@ -137,3 +161,18 @@ class VertexLikelihood:
         s2 = max(q / f, 1e-300)
         ld = self.logdet_r + (0.0 if self.known else math.log(a))
         return ld + f * math.log(s2) + f + f * _LOG2PI, s2
+
+    def slope(self, j):
+        """``d(-2 log L) / d log kappa`` of :meth:`profiled` for field ``j`` (built with ``slope=True``)."""
+        if self.dG is None:
+            raise ValueError("build the likelihood with slope=True for its derivative")
+        G, dG, f = self.G, self.dG, self.dof()
+        a, b, c = G[0, 0], G[0, j + 1], G[j + 1, j + 1]
+        da, db, dc = dG[0, 0], dG[0, j + 1], dG[j + 1, j + 1]
+        if self.known:
+            d = self.dlogdet_r + f * dc / c
+        else:
+            q = c - b * b / a
+            dq = dc - 2.0 * b * db / a + b * b * da / (a * a)
+            d = self.dlogdet_r + da / a + f * dq / q
+        return float(d * self.kappa)

@@ -142,6 +142,12 @@ class MaternShape:
         Q.sort_indices()
         return Q
 
+    def dprecision(self, kappa):
+        """``d(Q / tau^2) / d kappa``: ``2 kappa C`` for ``alpha = 1``, ``4 kappa K`` for ``alpha = 2`` (CSR)."""
+        if self.alpha == 1:
+            return sp.csr_array(sp.diags_array(2.0 * kappa * self.c))
+        return sp.csr_array(4.0 * kappa * self.K(kappa))
+
     def root(self, kappa):
         """``B`` with ``B' B = Q / tau^2``."""
         if self.alpha == 2:

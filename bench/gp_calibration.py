@@ -56,7 +56,7 @@ def _summary(rows, rho):
     out = {"draws": len(rows), "coverage90_mean": mean("coverage90"), "z2_mean": mean("z2"),
            "z2_median": med("z2"), "nlpd_mean": mean("nlpd"), "rmse_mean": mean("rmse"),
            "range_ratio_median": med("range_ratio"), "sigma_median": med("sigma"),
-           "seconds_mean": mean("seconds")}
+           "seconds_mean": mean("seconds"), "loo_rms_z_median": med("loo_rms_z")}
     cov = [r["coverage90"] for r in rows]
     out["coverage90_min"], out["coverage90_max"] = float(np.min(cov)), float(np.max(cov))
     if rows and "noise" in rows[0]:
@@ -86,7 +86,8 @@ def prior_part(V, F, rho, draws, k, noisy, log, oracle=False):
         g = r.report["gp"]
         row = {"draw": d, **scores(x, r.values, r.std, idx), "range": g["range"][0],
                "range_ratio": g["range"][0] / rho, "sigma": g["sigma"][0], "mean": g["mean"][0],
-               "seconds": sec, "gp_seconds": g["seconds"], "variance": g["variance"]}
+               "seconds": sec, "gp_seconds": g["seconds"], "variance": g["variance"],
+               "loo_rms_z": (g["variance"].get("loo") or [{}])[0].get("rms_z")}
         if noisy:
             nz = g["noise"][0]
             ynew = x + rng.normal(0.0, NOISE, len(x))
@@ -97,6 +98,7 @@ def prior_part(V, F, rho, draws, k, noisy, log, oracle=False):
         log(f"    draw {d}: coverage {row['coverage90']:.3f}, z2 {row['z2']:.3f}, range {row['range']:.3f} "
             f"({row['range_ratio']:.2f} x), sigma {row['sigma']:.3f}"
             + (f", noise {row['noise']:.3f}, new-obs coverage {row['coverage90_new']:.3f}" if noisy else "")
+            + (f", leave-one-out RMS z {row['loo_rms_z']:.2f}" if row["loo_rms_z"] else "")
             + f", {sec:.1f} s")
     return {"rho": rho, "sigma": 1.0, "mean": MEAN, "k": k, "noise": NOISE if noisy else 0.0, "oracle": oracle,
             "summary": _summary(rows, rho), "rows": rows}
@@ -187,11 +189,16 @@ def case_part(case, k, seed, log):
                                          np.asarray(std).ravel(), idx)}
         if name == "gp":
             g = r.report["gp"]
+            loo = g["variance"].get("loo")
             row.update({"range": g["range"][0], "sigma": g["sigma"][0], "noise": g["noise"][0],
-                        "gp_seconds": g["seconds"]})
+                        "gp_seconds": g["seconds"], "variance": g["variance"]["how"],
+                        "loo_rms_z": None if not loo else loo[0]["rms_z"],
+                        "loo_verdict": None if not loo else loo[0]["verdict"]})
         out["methods"][name] = row
         log(f"    {case.key} k={k} {name}: rmse {row['rmse']:.4f}"
-            + (f", coverage {row['coverage90']:.3f}, nlpd {row['nlpd']:.3f}" if "coverage90" in row else "")
+            + (f", coverage {row['coverage90']:.3f}, within 1.96 std {row['within196']:.3f}, RMS z "
+               f"{np.sqrt(row['z2']):.2f}, nlpd {row['nlpd']:.3f}" if "coverage90" in row else "")
+            + (f", leave-one-out RMS z {row['loo_rms_z']:.2f} ({row['loo_verdict']})" if row.get("loo_rms_z") else "")
             + f", {sec:.1f} s")
     return out
 

@@ -79,7 +79,8 @@ def scores(truth, mean, std, idx, span=None):
     if s is not None:
         ok = s > 0
         z = err[ok] / s[ok]
-        out.update({"coverage90": float(np.mean(np.abs(z) <= Z90)), "z2": float(np.mean(z * z)),
+        out.update({"coverage90": float(np.mean(np.abs(z) <= Z90)), "within196": float(np.mean(np.abs(z) <= 1.96)),
+                    "z2": float(np.mean(z * z)),
                     "nlpd": float(np.mean(0.5 * np.log(2 * math.pi * s[ok] ** 2) + 0.5 * z * z)),
                     "zero_std": int((~ok).sum())})
     return out

@@ -6,6 +6,8 @@ about a standard deviation (:func:`uncertainty_lines`: the Gaussian process's hy
 how the variance was computed, the std's range, the vertices ``trust`` marks).
 """
 
+import math
+
 import numpy as np
 
 __all__ = ["value_ranges", "uncertainty_lines", "value_columns"]
@@ -63,6 +65,27 @@ def _variance_line(info):
         return (f"variance exact (selected inversion of the {info['factor']} Cholesky factor, "
                 f"{info.get('factor_entries', 0):,} entries)")
     return f"variance {how}"
+
+
+def _loo_lines(loo):
+    """The std's check on the samples (leave-one-out), one line, with what to do when it is off."""
+    if not loo:
+        return []
+    rms = [x["rms_z"] for x in loo]
+    within = [x["within_1.96"] for x in loo]
+    line = (f"std checked by leaving out each of the {loo[0]['samples']:,} samples: errors {_numbers(rms, '.2f')} "
+            f"of the std (RMS; 1 when calibrated), {_numbers(within, '.0%')} within 1.96 std (95% expected)")
+    off = [x for x in loo if x["verdict"] != "calibrated"]
+    if not off:
+        return [line]
+    worst = max(off, key=lambda x: abs(math.log(x["rms_z"])))
+    if worst["verdict"] == "too wide":
+        what = (f"  the std looks about {1 / worst['rms_z']:.1f}x too wide on this field (smoother than the fitted "
+                f"model): its intervals are conservative")
+    else:
+        what = (f"  the std looks about {worst['rms_z']:.1f}x too narrow on this field (rougher than the fitted "
+                f"model): treat it as a lower bound, or pass noise='auto'")
+    return [line, what]
 
 
 def uncertainty_lines(report, std, trusted=None, point_ndim=1):
@@ -137,6 +160,7 @@ def uncertainty_lines(report, std, trusted=None, point_ndim=1):
     lo, hi = value_ranges(std, point_ndim)
     rng = "; ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi))
     lines.append(f"std: {_variance_line(info)}, std in {rng}")
+    lines.extend(_loo_lines(info.get("loo")))
     tr = report.get("trust")
     if tr is not None and trusted is not None:
         t = np.asarray(trusted, dtype=bool)

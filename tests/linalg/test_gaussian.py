@@ -214,3 +214,32 @@ def test_auto_variance_is_exact_with_cholmod_or_small_and_says_why_it_samples(mo
     monkeypatch.setattr(gaussian, "cholmod_available", lambda: False)
     _, info = Conditional(Q, B, IDX).variance("auto")
     assert info["how"] == "exact"
+
+
+def test_loo_summary_calls_a_std_off_when_the_errors_disagree():
+    z = np.random.default_rng(0).standard_normal(4000)
+    ok, wide, narrow = gaussian.loo_summary(z), gaussian.loo_summary(0.4 * z), gaussian.loo_summary(2.0 * z)
+    assert ok["verdict"] == "calibrated" and abs(ok["rms_z"] - 1) < 0.05 and abs(ok["within_1.96"] - 0.95) < 0.01
+    assert wide["verdict"] == "too wide" and narrow["verdict"] == "too narrow"
+    assert wide["rms_z"] == pytest.approx(0.4 * ok["rms_z"]) and narrow["within_1.96"] < 0.7
+
+
+@pytest.mark.skipif(not gaussian.cholmod_available(), reason="the [cholmod] extra (scikit-sparse) is not installed "
+                                                             "-> pip install -e '.[cholmod]'")
+def test_one_factor_with_the_samples_last_gives_mean_variance_draws_and_leave_one_out():
+    Q, B = _matern()
+    Y = np.random.default_rng(2).standard_normal((IDX.size, 2))
+    c = Conditional(Q, B, IDX, factoriser="cholesky", definite=True)
+    assert c._sl is not None
+    mean, gram, var = _oracle(Q, IDX, None, None, Y)
+    X = c.extend(Y)
+    assert np.abs(X - mean).max() < 1e-9 * np.abs(mean).max()
+    assert np.abs(c.gram(Y, X) - gram).max() < 1e-9 * np.abs(gram).max()
+    v, info = c.variance("exact")
+    assert np.abs(v - var).max() < 1e-9 * var.max() and info["factor"] == "cholmod"
+    plain = Conditional(Q, B, IDX, definite=True)
+    plain.variance("exact")
+    assert np.abs(c.loo(Y) - plain.loo(Y)).max() < 1e-9 * np.abs(plain.loo(Y)).max()
+    # draws: zero at the samples, covariance Q_ff^-1 (the same draws as the general path, same generator)
+    d1, d2 = c.draws(3, np.random.default_rng(4)), plain.draws(3, np.random.default_rng(4))
+    assert np.all(d1[IDX] == 0) and np.abs(d1 - d2).max() < 1e-9 * np.abs(d2).max()

@@ -13,6 +13,7 @@ with ``beta`` known (ML): ``log|S| + (y - beta)' S^-1 (y - beta) + m log 2 pi``.
 import math
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 from scipy.special import kv
 
@@ -196,3 +197,51 @@ def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean, facto
         assert sloped.profiled(0.0, j)[0] == pytest.approx(sparse.profiled(0.0, j)[0], rel=1e-12)
     with pytest.raises(ValueError, match="slope=True"):
         sparse.slope(0)
+
+
+def test_the_sparse_likelihood_refuses_a_factor_that_will_not_fit(monkeypatch):
+    from manifill import memory
+    from manifill.errors import ResourceError
+    from manifill.linalg.sparselik import LogdetFactors
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: 1000)
+    A = sp.identity(50, format="csc") * 2.0
+    with pytest.raises(ResourceError, match="likelihood's sparse factor of 50 unknowns.*give the range and sigma"):
+        LogdetFactors().factor("Q_ff", A)
+
+
+@pytest.mark.parametrize("mean", ["constant", 3.0])
+def test_leave_one_out_residuals_are_universal_krigings_refits(mean):
+    """One factor with the samples last gives every sample's leave-one-out residual: the same as refitting without
+    it (the constant mean estimated again, its variance added: universal kriging), sample by sample, densely."""
+    from manifill.linalg.sparselik import loo_residuals
+    from manifill.linalg.spde import MaternShape
+    from manifill.mesh.laplacian import laplacian, mass_matrix
+    from manifill.mesh.roots import gradient_root
+    from manifill.mesh.shapes import icosphere
+
+    V, F = icosphere(3)
+    rng = np.random.default_rng(0)
+    m = 40
+    idx = np.sort(rng.choice(len(V), m, replace=False))
+    free = np.setdiff1d(np.arange(len(V)), idx)
+    shape = MaternShape(laplacian(V, F), mass_matrix(V, F, mass="barycentric").diagonal(), gradient_root(V, F), 2, 2)
+    Q = shape.precision(2.0)
+    Y = rng.standard_normal((m, 2)) + 3.0
+    R = np.linalg.inv(Q.toarray())[np.ix_(idx, idx)]
+    want = np.empty((m, 2))
+    for i in range(m):
+        o = np.delete(np.arange(m), i)
+        w = np.linalg.solve(R[np.ix_(o, o)], R[o, i])
+        for j in range(2):
+            y = Y[:, j]
+            if mean == "constant":
+                r1 = np.linalg.solve(R[np.ix_(o, o)], np.ones(m - 1))
+                b = r1 @ y[o] / r1.sum()
+                mu, var = b + w @ (y[o] - b), R[i, i] - w @ R[o, i] + (1 - w.sum()) ** 2 / r1.sum()
+            else:
+                mu, var = mean + w @ (y[o] - mean), R[i, i] - w @ R[o, i]
+            want[i, j] = (y[i] - mu) / np.sqrt(var)
+    order = rng.permutation(len(free))  # any order of the other vertices: the same residuals
+    got = loo_residuals(Q, idx, Y, order, mean)
+    assert np.abs(got - want).max() < 1e-9 * np.abs(want).max()

@@ -468,3 +468,34 @@ def test_the_fit_on_sparse_factors_finds_the_dense_fits_optimum_on_every_sample(
     assert s["kappa"][0] == pytest.approx(d["kappa"][0], rel=0.05)
     assert s["loglik"] == pytest.approx(d["loglik"], abs=0.01)
     np.testing.assert_allclose(sparse.values, dense.values, rtol=0, atol=0.02 * np.ptp(vals))
+
+
+def test_the_std_is_checked_on_the_samples_by_leaving_each_out():
+    """The report's leave-one-out check predicts the held-out calibration: calibrated on draws of the prior with
+    the true hyperparameters, far too wide on a smooth field (said in the summary), within 1.5x of the held-out
+    RMS of error / std in both cases."""
+    from manifill.report import uncertainty_lines
+
+    V, F = icosphere(4)
+    Sigma = _sigma_dense(V, F, RANGE, SIGMA)
+    Lc = np.linalg.cholesky(Sigma)
+    idx, rng = _samples(len(V), 300, 3)
+    free = np.setdiff1d(np.arange(len(V)), idx)
+    smooth = np.sin(3 * V[:, 0]) + V[:, 1] * V[:, 2]
+    cases = {"prior": (Lc @ rng.standard_normal((len(V), 4)) + 2.0, GP),
+             "smooth": (smooth[:, None], {"variance": "exact"})}
+    for name, (X, gp) in cases.items():
+        r = manifill.reconstruct(V, F, idx, X[idx], method="gp", gp=gp)
+        loo = r.report["gp"]["variance"]["loo"]
+        assert len(loo) == X.shape[1] and all(x["samples"] == 300 for x in loo)
+        values, std = r.values.reshape(len(V), -1), r.std.reshape(len(V), -1)
+        for j, x in enumerate(loo):
+            held = float(np.sqrt(np.mean(((values[free, j] - X[free, j]) / std[free, j]) ** 2)))
+            assert 1 / 1.5 < x["rms_z"] / held < 1.5, (name, x, held)
+        lines = uncertainty_lines(r.report, r.std)
+        if name == "prior":
+            assert all(x["verdict"] == "calibrated" for x in loo), loo
+            assert not any("too" in line for line in lines)
+        else:
+            assert loo[0]["verdict"] == "too wide" and loo[0]["rms_z"] < 0.5
+            assert any("too wide on this field" in line for line in lines)

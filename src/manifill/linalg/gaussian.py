@@ -37,9 +37,11 @@ from ..errors import OptionError
 from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
-from .selinv import Factor, SelectedInverse, cholesky, cholmod_available
+from .selinv import Factor, SamplesLast, SelectedInverse, cholesky, cholmod_available
+from .sparselik import LOO_MAX, loo_residuals
 
-__all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "observation_matrix"]
+__all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "factoriser_for", "loo_summary",
+           "observation_matrix", "variance_summary"]
 
 #: How the variance is computed: ``auto`` is ``exact`` where :func:`exact_by_default` says so, else ``sampled``.
 VARIANCES = ("auto", "exact", "sampled")
@@ -91,7 +93,14 @@ class Conditional:
         self.k = self.idx.size
         self.m = self.k + (0 if rows is None else self.rows.shape[0])
         t0 = time.perf_counter()
-        if eta is None:
+        self._sl = None
+        if eta is None and factoriser == "cholesky" and rows is None and definite and cholmod_available() \
+                and 0 < self.k < self.n:  # one factor for the mean, the variance and the leave-one-out check
+            self.eta = None
+            self._sl = SamplesLast(self.Q, self.idx)
+            self._Qfs = sp.csr_array(self.Q[self._sl.free][:, self.idx])
+            self.report = {"solver": "direct", "unknowns": self._sl.nf}
+        elif eta is None:
             self.eta = None
             use = "direct" if rows is not None and solver != "direct" else solver
             self._qs = QuadraticSolver(self.Q, self.idx, solver=use, Aeq=self.rows,
@@ -129,6 +138,11 @@ class Conditional:
         (n, p) numpy array
         """
         Y = np.asarray(Y, dtype=np.float64).reshape(self.m, -1)
+        if self._sl is not None:
+            X = np.empty((self.n, Y.shape[1]))
+            X[self.idx] = Y
+            X[self._sl.free] = -self._sl.solve_free(self._Qfs @ Y)
+            return X
         if self.eta is None:
             X = self._qs.solve(Y[:self.k], beq=None if self.rows is None else Y[self.k:])
             return X if X.ndim == 2 else X[:, None]
@@ -196,6 +210,8 @@ class Conditional:
     def _factor(self, free):
         """The Cholesky :class:`~manifill.linalg.selinv.Factor` of the unknowns' precision: the solver's own
         where it made one (``factoriser='cholesky'``), else a new one."""
+        if self._sl is not None:
+            return self._sl.free_factor()
         backend = self._backend if self.eta is not None else self._qs.backend
         own = getattr(backend, "factor", None)
         if isinstance(own, Factor) and (self.eta is not None or self.rows is None):
@@ -203,12 +219,24 @@ class Conditional:
         M = self.P if self.eta is not None else self.Q[free][:, free]
         return cholesky(M)
 
+    def loo(self, Y, mean="constant"):
+        """Leave-one-out residuals of exact vertex data (:func:`~manifill.linalg.sparselik.loo_residuals`, units
+        of the scale), from the order of the exact variance's factor; None where not computed (noise, points
+        inside faces, no exact variance yet, more than :data:`~manifill.linalg.sparselik.LOO_MAX` samples)."""
+        f = getattr(self, "_factor_used", None)
+        if self.eta is not None or self.rows is not None or (f is None and self._sl is None) \
+                or not 3 <= self.k <= LOO_MAX:
+            return None
+        if self._sl is not None:
+            return loo_residuals(self.Q, self.idx, Y, self._sl.p_ff, mean, Lss=self._sl.schur_factor())
+        return loo_residuals(self.Q, self.idx, Y, f.p, mean)
+
     def _exact(self):
         var = np.zeros(self.n)
         free = np.arange(self.n) if self.eta is not None else np.setdiff1d(np.arange(self.n), self.idx)
         if free.size == 0:  # every node observed exactly: nothing is uncertain
             return var, {"how": "exact"}
-        f = self._factor(free)
+        f = self._factor_used = self._factor(free)
         var[free] = SelectedInverse(f).diagonal()
         info = {"how": "exact", "factor": f.name, "factor_entries": int(f.nnz)}
         if self.eta is None and self.rows is not None:
@@ -224,6 +252,10 @@ class Conditional:
         if self.B is None:
             raise OptionError("drawing needs a root of the precision, and this one has none; use a triangle mesh")
         W = self.B.T @ rng.standard_normal((self.B.shape[0], c))
+        if self._sl is not None:
+            E = np.zeros((self.n, c))
+            E[self._sl.free] = self._sl.solve_free(W[self._sl.free])
+            return E
         if self.eta is None:
             E = self._qs.solve(np.zeros((self.k, c)), linear=-W,
                                beq=None if self.rows is None else np.zeros((self.rows.shape[0], c)))
@@ -272,6 +304,42 @@ def exact_by_default(unknowns):
     """Whether ``variance='auto'`` is exact: always with CHOLMOD (the ``[cholmod]`` extra), else up to
     :data:`EXACT_MAX` unknowns (SuperLU's factor; above it a Monte Carlo estimate is faster)."""
     return unknowns <= EXACT_MAX or cholmod_available()
+
+
+def factoriser_for(with_std, variance, unknowns):
+    """``cholesky`` where the exact variance will be read from the factor the mean is solved with, else None."""
+    exact = variance == "exact" or (variance == "auto" and exact_by_default(unknowns))
+    return "cholesky" if with_std and exact else None
+
+
+def variance_summary(infos):
+    """One report of the variance computations of every group of fields (the worst Monte Carlo error; the
+    leave-one-out check of every field, in the fields' order of the groups)."""
+    if not infos:
+        return {"how": None}
+    out = {k: v for k, v in infos[0].items() if k not in ("se", "loo")}
+    out["seconds"] = float(sum(i["seconds"] for i in infos))
+    for key in ("rel_se_median", "rel_se_max"):
+        if key in out:
+            out[key] = float(max(i[key] for i in infos))
+    if all("loo" in i for i in infos):
+        out["loo"] = [x for i in infos for x in i["loo"]]
+    return out
+
+
+#: The std is called off where the leave-one-out errors' RMS over the std is beyond these (about 1.33x either way).
+LOO_STD_RATIO = (0.75, 1.33)
+
+
+def loo_summary(z):
+    """The calibration of the std on the samples themselves, from standardised leave-one-out residuals ``z``:
+    ``samples``, ``rms_z`` (the errors' RMS over the std: 1 when calibrated), ``within_1.96`` (the share of
+    ``|z| <= 1.96``: 0.95), ``verdict`` (``calibrated``, ``too wide`` or ``too narrow``, by :data:`LOO_STD_RATIO`)."""
+    z = np.asarray(z, dtype=np.float64)
+    rms = float(np.sqrt(np.mean(z * z)))
+    verdict = "too wide" if rms < LOO_STD_RATIO[0] else "too narrow" if rms > LOO_STD_RATIO[1] else "calibrated"
+    return {"samples": int(z.size), "rms_z": rms, "within_1.96": float(np.mean(np.abs(z) <= 1.96)),
+            "verdict": verdict}
 
 
 def _constraint_term(f, A):

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import OptionError, SampleError
 from .factorise import factorise
-from .gaussian import VARIANCES, Conditional, exact_by_default, observation_matrix
+from .gaussian import VARIANCES, Conditional, factoriser_for, loo_summary, observation_matrix, variance_summary
 from .sparselik import LogdetFactors, VertexLikelihood, sparse_fit_pays
 from .gpfit import fit_range, near_euclidean
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
@@ -403,7 +403,7 @@ def _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report):
     for (kap, eta), cols in groups.items():
         Q, B = shape.precision(kap), shape.root(kap)
         cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver), definite=True,
-                           factoriser=_factoriser(with_std, opts.variance, shape.n - (len(idx) if eta is None else 0)))
+                           factoriser=factoriser_for(with_std, opts.variance, shape.n - (len(idx) if eta is None else 0)))
         data = Y[:, cols] - (float(opts.mean) if known else 0.0)
         Z = cond.extend(np.column_stack([data, np.ones(m)]))
         G = cond.gram(np.column_stack([data, np.ones(m)]), Z)
@@ -423,6 +423,9 @@ def _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report):
         if not with_std:
             continue
         var, info = cond.variance(opts.variance, samples=opts.samples, seed=opts.seed)
+        loo = cond.loo(data, 0.0 if known else "constant")  # exact vertex data: leave-one-out, one more factor
+        if loo is not None:
+            info["loo"] = [loo_summary(loo[:, i] / math.sqrt(s2[j])) for i, j in enumerate(cols)]
         extra = 0.0 if known else (1.0 - Z[:, -1]) ** 2 / a
         for j in cols:
             std[:, j] = np.sqrt(np.maximum(s2[j] * (var + extra), 0.0))
@@ -440,27 +443,9 @@ def _summary(prior, hyper, beta, var_info, groups):
         "sigma": [prior.sigma(s2[j], kappa[j]) for j in range(len(kappa))],
         "noise": [math.sqrt(x) for x in hyper.n2],
         "mean": [float(b) for b in beta],
-        "variance": _variance_summary(var_info),
+        "variance": variance_summary(var_info),
         "groups": groups,
     }
-
-
-def _variance_summary(infos):
-    """One report of the variance computations of every group of fields (the worst Monte Carlo error)."""
-    if not infos:
-        return {"how": None}
-    out = {k: v for k, v in infos[0].items() if k != "se"}
-    out["seconds"] = float(sum(i["seconds"] for i in infos))
-    for key in ("rel_se_median", "rel_se_max"):
-        if key in out:
-            out[key] = float(max(i[key] for i in infos))
-    return out
-
-
-def _factoriser(with_std, variance, unknowns):
-    """``cholesky`` where the exact variance will be read from the factor the mean is solved with."""
-    exact = variance == "exact" or (variance == "auto" and exact_by_default(unknowns))
-    return "cholesky" if with_std and exact else None
 
 
 def _many_rhs(solver):
@@ -490,7 +475,7 @@ def intrinsic_std(Q, B, idx, rows, Y, X, *, eta=None, how="auto", samples=100, s
         raise SampleError(f"a standard deviation needs more samples than components ({components}), got {m}; "
                           f"add samples")
     cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver),
-                       factoriser=_factoriser(True, how, Q.shape[0] - (0 if eta is not None else len(idx))))
+                       factoriser=factoriser_for(True, how, Q.shape[0] - (0 if eta is not None else len(idx))))
     G = cond.gram(Y, X)
     var, info = cond.variance(how, samples=samples, seed=seed)
     scale = [math.sqrt(max(G[j, j] / (m - components), 0.0)) for j in range(p)]

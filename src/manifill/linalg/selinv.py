@@ -28,7 +28,7 @@ from scipy.sparse.linalg import splu
 from ..errors import SolveError
 from ..memory import check_fits
 
-__all__ = ["Factor", "cholesky", "cholmod_available", "SelectedInverse", "inverse_diagonal"]
+__all__ = ["Factor", "cholesky", "cholmod_available", "SamplesLast", "SelectedInverse", "inverse_diagonal"]
 
 _NOT_DEFINITE = ("the precision is not positive definite to working precision (degenerate elements?); clean the "
                  "mesh, or pass variance='sampled'")
@@ -88,7 +88,7 @@ def _one_blas_thread():
         yield
 
 
-def cholesky(A, backend="auto"):
+def cholesky(A, backend="auto", order=None):
     """The :class:`Factor` of a sparse symmetric positive definite ``A``.
 
     Parameters
@@ -96,24 +96,93 @@ def cholesky(A, backend="auto"):
     A : (n, n) scipy sparse matrix
     backend : {'auto', 'cholmod', 'superlu'}, optional
         ``auto``: CHOLMOD where the ``[cholmod]`` extra is installed, else SuperLU.
+    order : (n,) int array, optional
+        The elimination order to keep (e.g. some unknowns last); default: a fill-reducing one.
     """
     A = sp.csc_matrix(A)
+    if order is not None:
+        order = np.asarray(order, dtype=np.int64)
+        A = sp.csc_matrix(A[order][:, order])
     cholmod = _cholmod() if backend in ("auto", "cholmod") else None
     if cholmod is not None:
         try:
-            f = cholmod.cholesky(A)
+            f = cholmod.cholesky(A, ordering_method="natural" if order is not None else "default")
         except cholmod.CholmodNotPositiveDefiniteError:
             raise SolveError(_NOT_DEFINITE) from None
-        return Factor(f.L(), f.P(), "cholmod", f.solve_A)
-    lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-    d = lu.U.diagonal()
-    if not (np.all(d > 0) and np.array_equal(lu.perm_r, lu.perm_c)):
-        raise SolveError(_NOT_DEFINITE)
-    # Pr A Pc = L U with Pr = Pc' from the same permutation, and U = D L' (no pivoting off the diagonal)
-    L = sp.csc_matrix(lu.L) @ sp.diags_array(np.sqrt(d))
-    p = np.empty_like(lu.perm_c)
-    p[lu.perm_c] = np.arange(len(p))
-    return Factor(L, p, "superlu", lu.solve)
+        L, p, name, solve = f.L(), f.P(), "cholmod", f.solve_A
+    else:
+        lu = splu(A, permc_spec="MMD_AT_PLUS_A" if order is None else "NATURAL", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+        d = lu.U.diagonal()
+        if not (np.all(d > 0) and np.array_equal(lu.perm_r, lu.perm_c)):
+            raise SolveError(_NOT_DEFINITE)
+        # Pr A Pc = L U with Pr = Pc' from the same permutation, and U = D L' (no pivoting off the diagonal)
+        L = sp.csc_matrix(lu.L) @ sp.diags_array(np.sqrt(d))
+        p = np.empty_like(lu.perm_c)
+        p[lu.perm_c] = np.arange(len(p))
+        name, solve = "superlu", lu.solve
+    if order is None:
+        return Factor(L, p, name, solve)
+    return Factor(L, order[p], name, _reordered(solve, order))
+
+
+def _reordered(solve, order):
+    """``B -> A^-1 B`` from ``solve`` of ``A[order][:, order]``."""
+    def out(B):
+        X = np.empty_like(B)
+        X[order] = np.asarray(solve(B[order])).reshape(B[order].shape)
+        return X
+    return out
+
+
+class SamplesLast:
+    """One CHOLMOD factorisation of a precision ``Q`` with the observed nodes ``idx`` eliminated last.
+
+    The others (``free``) come first in a fill-reducing order of ``Q_ff`` (METIS's, from CHOLMOD's analysis of
+    ``Q_ff``), so the factor is ``L = [[L_ff, 0], [L_sf, L_ss]]`` with ``L_ff L_ff' = Q_ff`` and ``L_ss L_ss' = S``,
+    the Schur complement ``Q_ss - Q_sf Q_ff^-1 Q_fs`` (the observed values' precision). One factorisation then
+    gives the conditional mean and draws (:meth:`solve_free`: ``Q_ff^-1 b`` by the two triangular solves of
+    ``L_ff``), the exact variance (:meth:`free_factor`, for a selected inversion) and every sample's
+    leave-one-out residual (``L_ss``), where separate factorisations of ``Q_ff`` and of ``Q`` in this order took
+    30% longer (163k vertices, 1,000 samples). Needs the ``[cholmod]`` extra.
+    """
+
+    def __init__(self, Q, idx):
+        cholmod = _cholmod()
+        Q = sp.csc_matrix(Q)
+        n = Q.shape[0]
+        self.idx = np.asarray(idx, dtype=np.int64)
+        self.free = np.setdiff1d(np.arange(n), self.idx)
+        self.nf = len(self.free)
+        Qff = sp.csc_matrix(Q[self.free][:, self.free])
+        try:
+            self.p_ff = cholmod.analyze(Qff).P()
+            order = np.concatenate([self.free[self.p_ff], self.idx])
+            self._f = cholmod.cholesky(sp.csc_matrix(Q[order][:, order]), ordering_method="natural")
+        except cholmod.CholmodNotPositiveDefiniteError:
+            raise SolveError(_NOT_DEFINITE) from None
+        self.L = self._f.L()
+        self.nnz = int(self.L.indptr[self.nf])  # entries of L's first nf columns (L_ff and L_sf)
+
+    def solve_free(self, B):
+        """``Q_ff^-1 B`` for the rows of ``B`` in ``free``'s order (a vector or columns)."""
+        B = np.asarray(B, dtype=np.float64)
+        Z = np.zeros((len(self.idx) + self.nf,) + B.shape[1:])
+        Z[:self.nf] = B[self.p_ff]
+        Z = np.asarray(self._f.solve_L(Z, use_LDLt_decomposition=False)).reshape(Z.shape)
+        Z[self.nf:] = 0.0  # L' w = [z_f; 0] leaves w_s = 0 and L_ff' w_f = z_f
+        W = np.asarray(self._f.solve_Lt(Z, use_LDLt_decomposition=False)).reshape(Z.shape)
+        X = np.empty_like(B)
+        X[self.p_ff] = W[:self.nf]
+        return X
+
+    def free_factor(self):
+        """The :class:`Factor` of ``Q_ff`` (``L_ff`` and its order), for :class:`SelectedInverse`."""
+        return Factor(self.L[:self.nf, :self.nf], self.p_ff, "cholmod", self.solve_free)
+
+    def schur_factor(self):
+        """``L_ss`` (dense lower triangular, the samples in ``idx``'s order): ``L_ss L_ss'`` is the Schur complement."""
+        return self.L[self.nf:, self.nf:].toarray()
 
 
 def _supernodes(L):
@@ -157,17 +226,23 @@ class SelectedInverse:
         # column c of supernode T starts at boff[T] + (c - t0) h; its entries from the diagonal on
         sn, starts, h_of = lay.sn, lay.starts, lay.h_of
         self._where = lay.boff[sn] + (np.arange(n) - starts[sn]) * (h_of[sn] + 1)  # each column's diagonal
-        self._pos = np.repeat(self._where - L.indptr[:-1], np.diff(L.indptr)) + np.arange(L.nnz)  # L's entries
         lb = np.zeros(lay.boff[-1])
-        lb[self._pos] = L.data
+        lb[self._positions()] = L.data
         self._blocks = np.zeros(lay.boff[-1])
         with _one_blas_thread():
             _sweep(lay, lb, self._blocks)
 
+    def _positions(self):
+        """Where ``L``'s entries (CSC order) sit in the blocks."""
+        ip = self.factor.L.indptr
+        pos = np.repeat(self._where - ip[:-1], np.diff(ip))
+        pos += np.arange(len(pos))
+        return pos
+
     @property
     def values(self):
         """``Sigma``'s entries in the layout of ``factor.L``'s (CSC) entries."""
-        return self._blocks[self._pos]
+        return self._blocks[self._positions()]
 
     def diagonal(self):
         """``diag(A^-1)`` in ``A``'s own order."""

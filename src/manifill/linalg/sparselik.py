@@ -24,11 +24,15 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
+from ..memory import check_fits, lu_memory
 from .selinv import Factor, SelectedInverse, cholesky
 
-__all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood"]
+__all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood", "LOO_MAX", "loo_residuals"]
 
 _LOG2PI = math.log(2.0 * math.pi)
+
+#: Most samples whose leave-one-out residuals :func:`loo_residuals` computes (a dense ``m x m`` block).
+LOO_MAX = 5_000
 
 
 def spd_logdet(A):
@@ -76,11 +80,20 @@ class LogdetFactors:
     def __init__(self):
         self._cholmod = _cholmod()
         self._symbolic = {}
+        self._checked = set()
         self.name = "cholmod" if self._cholmod is not None else "superlu"
 
     def factor(self, key, A, selected=False):
         """``(solve, log det A)`` of the symmetric positive definite ``A``, whose pattern is named ``key``; with
-        ``selected``, the first is a :class:`manifill.linalg.selinv.Factor` (for a selected inversion)."""
+        ``selected``, the first is a :class:`manifill.linalg.selinv.Factor` (for a selected inversion).
+
+        The first factorisation of each pattern is refused before it starts if its estimated fill
+        (:func:`manifill.memory.lu_memory`) will not fit."""
+        if key not in self._checked:
+            n = A.shape[0]
+            check_fits(lu_memory(n, A.nnz, dim=2), f"the likelihood's sparse factor of {n:,} unknowns",
+                       "give the range and sigma (gp={'range': ..., 'sigma': ...}) instead of fitting them")
+            self._checked.add(key)
         if self._cholmod is None:
             if selected:
                 f = cholesky(A, backend="superlu")
@@ -176,3 +189,45 @@ class VertexLikelihood:
             dq = dc - 2.0 * b * db / a + b * b * da / (a * a)
             d = self.dlogdet_r + da / a + f * dq / q
         return float(d * self.kappa)
+
+
+def loo_residuals(Q, idx, Y, free_order, mean="constant", Lss=None):
+    """Leave-one-out residuals of exact samples at the vertices ``idx``, standardised (units of the scale ``s``).
+
+    With the samples ordered last, the Cholesky factor of ``Q`` ends in ``L_ss`` with ``L_ss L_ss' = S``, the
+    Schur complement (``S = R^-1``, the data's precision). Universal kriging's leave-one-out (the constant mean
+    estimated again without each sample) then has, with ``S_b = S - S 1 1' S / (1' S 1)``, the residual
+    ``(S_b y)_i / (S_b)_ii`` and the variance ``s^2 / (S_b)_ii``: so ``z_i = (S_b y)_i / sqrt((S_b)_ii)`` / ``s``
+    (Dubrule 1983), for every sample from one factorisation.
+
+    Parameters
+    ----------
+    Q : (n, n) sparse precision (shape)
+    idx : (m,) sorted unique int array
+    Y : (m, p) array
+    free_order : (n - m,) int array
+        A fill-reducing order of the other vertices (e.g. the variance's factor's ``p``).
+    mean : 'constant' or float
+    Lss : (m, m) numpy array, optional
+        The factor's last block where it is at hand (:class:`manifill.linalg.selinv.SamplesLast`).
+
+    Returns
+    -------
+    (m, p) numpy array
+        ``z * s`` for each sample and field (divide by the field's scale).
+    """
+    n, m = Q.shape[0], len(idx)
+    if Lss is None:
+        free = np.setdiff1d(np.arange(n), idx)
+        f = cholesky(Q, order=np.concatenate([free[free_order], idx]))
+        Lss = f.L[n - m:, n - m:].toarray()
+    known = not isinstance(mean, str)
+    Y = np.asarray(Y, dtype=np.float64).reshape(m, -1) - (float(mean) if known else 0.0)
+    SY = Lss @ (Lss.T @ Y)
+    d = np.einsum("ij,ij->i", Lss, Lss)
+    if not known:
+        s1 = Lss @ (Lss.T @ np.ones(m))
+        a = float(s1.sum())
+        SY = SY - np.outer(s1, s1 @ Y) / a
+        d = d - s1 * s1 / a
+    return SY / np.sqrt(np.maximum(d, 1e-300))[:, None]

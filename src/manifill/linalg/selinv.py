@@ -147,22 +147,42 @@ class SamplesLast:
     30% longer (163k vertices, 1,000 samples). Needs the ``[cholmod]`` extra.
     """
 
-    def __init__(self, Q, idx):
+    def __init__(self, Q, idx, symbolic=None):
         cholmod = _cholmod()
         Q = sp.csc_matrix(Q)
         n = Q.shape[0]
         self.idx = np.asarray(idx, dtype=np.int64)
         self.free = np.setdiff1d(np.arange(n), self.idx)
         self.nf = len(self.free)
-        Qff = sp.csc_matrix(Q[self.free][:, self.free])
+        symbolic = {} if symbolic is None else symbolic  # kept by the caller across precisions of one pattern
         try:
-            self.p_ff = cholmod.analyze(Qff).P()
+            if "p_ff" not in symbolic:
+                symbolic["p_ff"] = cholmod.analyze(sp.csc_matrix(Q[self.free][:, self.free])).P()
+            self.p_ff = symbolic["p_ff"]
             order = np.concatenate([self.free[self.p_ff], self.idx])
-            self._f = cholmod.cholesky(sp.csc_matrix(Q[order][:, order]), ordering_method="natural")
+            A = sp.csc_matrix(Q[order][:, order])
+            if "natural" not in symbolic:
+                symbolic["natural"] = cholmod.analyze(A, ordering_method="natural")
+            self._f = symbolic["natural"].cholesky(A)
         except cholmod.CholmodNotPositiveDefiniteError:
             raise SolveError(_NOT_DEFINITE) from None
-        self.L = self._f.L()
-        self.nnz = int(self.L.indptr[self.nf])  # entries of L's first nf columns (L_ff and L_sf)
+        self._L = None
+
+    @property
+    def L(self):
+        """The factor (CSC; CHOLMOD's supernodes converted on first use)."""
+        if self._L is None:
+            self._L = self._f.L()
+        return self._L
+
+    @property
+    def nnz(self):
+        """Entries of ``L``'s first ``nf`` columns (``L_ff`` and ``L_sf``)."""
+        return int(self.L.indptr[self.nf])
+
+    def logdet_schur(self):
+        """``log det S`` (``S`` the Schur complement on the samples) from the factor's diagonal alone."""
+        return float(np.log(np.asarray(self._f.D())[self.nf:]).sum())
 
     def solve_free(self, B):
         """``Q_ff^-1 B`` for the rows of ``B`` in ``free``'s order (a vector or columns)."""

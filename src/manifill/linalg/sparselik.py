@@ -25,7 +25,7 @@ from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
-from .selinv import Factor, SelectedInverse, cholesky
+from .selinv import Factor, SamplesLast, SelectedInverse, cholesky
 
 __all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood", "LOO_MAX", "loo_residuals"]
 
@@ -83,6 +83,15 @@ class LogdetFactors:
         self._checked = set()
         self.name = "cholmod" if self._cholmod is not None else "superlu"
 
+    def samples_last(self, Q, idx):
+        """A :class:`manifill.linalg.selinv.SamplesLast` factor of ``Q`` (CHOLMOD), its analyses kept for the next."""
+        if "samples last" not in self._checked:
+            n = Q.shape[0]
+            check_fits(lu_memory(n, Q.nnz, dim=2), f"the likelihood's sparse factor of {n:,} unknowns",
+                       "give the range and sigma (gp={'range': ..., 'sigma': ...}) instead of fitting them")
+            self._checked.add("samples last")
+        return SamplesLast(Q, idx, self._symbolic.setdefault("samples last", {}))
+
     def factor(self, key, A, selected=False):
         """``(solve, log det A)`` of the symmetric positive definite ``A``, whose pattern is named ``key``; with
         ``selected``, the first is a :class:`manifill.linalg.selinv.Factor` (for a selected inversion).
@@ -138,15 +147,20 @@ class VertexLikelihood:
         Qff = Q[free][:, free]
         Qsf = sp.csr_array(Q[idx][:, free])
         Qss = Q[idx][:, idx]
-        f_ff, ld_ff = factors.factor("Q_ff", Qff, selected=slope)
-        f_k, ld_k = factors.factor("K", shape.K(kappa), selected=slope)
-        ld_q = ld_k if shape.alpha == 1 else 2.0 * ld_k - float(np.log(shape.c).sum())
-        self.logdet_r = ld_ff - ld_q
+        if factors.name == "cholmod" and not slope:  # one factor, the samples last: log det R = -log det S
+            sl = factors.samples_last(Q, idx)
+            self.logdet_r = -sl.logdet_schur()
+            solve_ff = sl.solve_free
+        else:
+            f_ff, ld_ff = factors.factor("Q_ff", Qff, selected=slope)
+            f_k, ld_k = factors.factor("K", shape.K(kappa), selected=slope)
+            ld_q = ld_k if shape.alpha == 1 else 2.0 * ld_k - float(np.log(shape.c).sum())
+            self.logdet_r = ld_ff - ld_q
+            solve_ff = f_ff.solve if slope else f_ff
         self.m = len(idx)
         self.known = not isinstance(mean, str)
         Y = np.asarray(Y, dtype=np.float64).reshape(self.m, -1) - (float(mean) if self.known else 0.0)
         T = np.column_stack([np.ones(self.m), Y])
-        solve_ff = f_ff.solve if slope else f_ff
         Xf = -np.asarray(solve_ff(np.asarray(Qsf.T @ T))).reshape(len(free), -1)
         self.G = T.T @ (Qss @ T + Qsf @ Xf)  # [1 Y]' S [1 Y]
         self.kappa = kappa

@@ -402,8 +402,9 @@ def _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report):
     groups = _groups(eta_key)
     for (kap, eta), cols in groups.items():
         Q, B = shape.precision(kap), shape.root(kap)
+        unknowns = shape.n - (len(idx) if eta is None else 0)
         cond = Conditional(Q, B, idx, rows=rows, eta=eta, solver=_many_rhs(solver), definite=True,
-                           factoriser=factoriser_for(with_std, opts.variance, shape.n - (len(idx) if eta is None else 0)))
+                           factoriser=factoriser_for(with_std, opts.variance, unknowns))
         data = Y[:, cols] - (float(opts.mean) if known else 0.0)
         Z = cond.extend(np.column_stack([data, np.ones(m)]))
         G = cond.gram(np.column_stack([data, np.ones(m)]), Z)

@@ -6,8 +6,10 @@ covariance is ``s^2 R`` with ``R = (Q^-1)_ss`` and, by the Schur complement,
     R^-1 = S = Q_ss - Q_sf Q_ff^-1 Q_fs,        log det R = log det Q_ff - log det Q,
 
 so one factorisation of ``Q_ff`` (and one of ``K``: ``log det Q = 2 log det K - log det C`` for ``alpha = 2``)
-gives the likelihood of all ``m`` samples, where the kriging form (:mod:`manifill.linalg.gpfit`) builds the dense
-``m x m`` matrix ``R`` by ``m`` solves and so fits on a subset. The value is the same
+gives the likelihood of all ``m`` samples (with CHOLMOD, one factorisation of ``Q`` with the samples ordered
+last instead: ``log det R = -log det S`` from its last diagonal entries, 25% less per trial at 163k vertices),
+where the kriging form (:mod:`manifill.linalg.gpfit`) builds the dense ``m x m`` matrix ``R`` by ``m`` solves and
+so fits on a subset. The value is the same
 (:meth:`manifill.linalg.gpfit.Likelihood.profiled` with no noise, the scale profiled, the mean by REML or
 known).
 

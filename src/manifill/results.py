@@ -245,6 +245,41 @@ class Result(ABC):
         """The draws of :meth:`sample` (a result with a fitted probability model overrides this)."""
         raise OptionError("this result has no fitted probability model to draw from; use method='gp'")
 
+    def gradient(self, at="vertices", *, return_std=False, draws=100, seed=0):
+        """The gradient of every field (of its piecewise-linear interpolant), e.g. a conduction velocity's inverse.
+
+        Parameters
+        ----------
+        at : {'vertices', 'cells'}, optional
+            ``vertices``: per vertex (or voxel), the cells' gradients weighted by their areas or volumes (on a
+            surface, the part tangent to it); ``cells``: per triangle or tetrahedron, exact for linear fields.
+        return_std : bool, optional
+            Also the gradient's std per component, from ``draws`` posterior draws (:meth:`sample`:
+            ``method='gp'`` only; a Monte Carlo estimate, relative error about ``1 / sqrt(2 draws)``).
+        draws, seed : int, optional
+
+        Returns
+        -------
+        numpy array
+            ``values``' shape with a last axis of 3 (for a field ``(n,)``: ``(n, 3)``); its magnitude is
+            ``np.linalg.norm(g, axis=-1)``. With ``return_std``, ``(gradient, std)`` alike.
+        """
+        if at not in ("vertices", "cells"):
+            raise OptionError(f"at={at!r} is not 'vertices' or 'cells'; pass one of those")
+        g = self._gradient(self.values, at)
+        if not return_std:
+            return g
+        D = self.sample(draws, seed=seed)  # values' shape + (draws,)
+        flat = D.reshape(D.shape[:self.point_ndim] + (-1,))
+        G = self._gradient(flat, at)  # (..., fields * draws, 3)
+        G = G.reshape(G.shape[:-2] + D.shape[self.point_ndim:] + (3,))
+        return g, np.std(G, axis=-2, ddof=1)
+
+    def _gradient(self, X, at):
+        """The gradient of the fields ``X`` (points first) where :meth:`gradient` says (a domain with cells
+        overrides this)."""
+        raise OptionError("this result's domain has no cells to take a gradient on")
+
     def fields(self):
         """``values`` with a last axis per field, also for a single field.
 

@@ -132,7 +132,7 @@ def uncertainty_args(s):
     g.add_argument("--variance", choices=("auto", "exact", "sampled"), default=None,
                    help="gp: how the std is computed: exact (selected inversion of the sparse Cholesky factor), "
                         "sampled (Monte Carlo, with its error in the summary) or auto (default: exact with the "
-                        "[cholmod] extra or up to 50,000 unknowns)")
+                        "[cholmod] extra or up to 20,000 unknowns)")
     g.add_argument("--variance-samples", type=int, default=None, metavar="N",
                    help="gp: Monte Carlo samples of --variance sampled (default: 100; error about 1/sqrt(N))")
     g.add_argument("--draws", type=int, default=0, metavar="N",

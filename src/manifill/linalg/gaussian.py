@@ -46,10 +46,11 @@ __all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "factori
 #: How the variance is computed: ``auto`` is ``exact`` where :func:`exact_by_default` says so, else ``sampled``.
 VARIANCES = ("auto", "exact", "sampled")
 
-#: Largest number of unknowns for which ``variance='auto'`` is exact without CHOLMOD (SuperLU's Cholesky
-#: factor: 1.6 s and a selected inversion of 1.3 s at 41k unknowns of a Matérn precision, 13 s and 8.6 s at
-#: 163k, where CHOLMOD took 2.6 s and 2.5 s).
-EXACT_MAX = 50_000
+#: Largest number of unknowns for which ``variance='auto'`` is exact without CHOLMOD. SuperLU's Cholesky factor is
+#: slow: at 41k unknowns (100 samples, a fresh ``[all]`` install) the exact std and its leave-one-out check took
+#: 5-6 s where Pardiso's factor and the sampled std took 2-2.4 s; CHOLMOD's factor, the selected inversion and the
+#: check together took 1.3 s at 41k and 8.8 s at 163k.
+EXACT_MAX = 20_000
 
 #: Bytes of the ``W = Q_ff^-1 A'`` columns held at once for exact points inside faces (two passes above).
 _W_BYTES = 500_000_000

@@ -57,7 +57,7 @@ class GPOptions:
     variance : {'auto', 'exact', 'sampled'}
         ``exact``: selected inversion of the sparse Cholesky factor (:mod:`manifill.linalg.selinv`);
         ``sampled``: a Monte Carlo estimate with its standard error in the report; ``auto``: exact with
-        CHOLMOD (the ``[cholmod]`` extra) or up to 50,000 unknowns, sampled above.
+        CHOLMOD (the ``[cholmod]`` extra) or up to 20,000 unknowns, sampled above.
     samples : int
         Conditional samples of ``variance='sampled'`` (error about ``1 / sqrt(samples)``).
     seed : int

@@ -16,6 +16,8 @@ Q^-1``), and conditional samples are the same solve with the constraints kept
 import numpy as np
 import scipy.sparse as sp
 
+from .gradients import gradient_operator
+
 __all__ = ["edge_root", "gradient_root", "laplacian_root"]
 
 
@@ -76,31 +78,8 @@ def gradient_root(V, F):
     >>> bool(abs(B.T @ B - laplacian(V, F)).max() < 1e-12)
     True
     """
-    V = np.asarray(V, dtype=np.float64)
-    if V.shape[1] == 2:
-        V = np.column_stack([V, np.zeros(len(V))])
-    F = np.asarray(F, dtype=np.int64)
-    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    N = np.cross(b - a, c - a)
-    dbl = np.linalg.norm(N, axis=1)  # twice the area
-    ok = dbl > 0
-    unit = np.zeros_like(N)
-    unit[ok] = N[ok] / dbl[ok, None]
-    # grad(phi_i) = (n x e_i) / (2 area), e_i the edge opposite vertex i, oriented
-    grads = [np.cross(unit, c - b), np.cross(unit, a - c), np.cross(unit, b - a)]
-    scale = np.zeros_like(dbl)
-    scale[ok] = 1.0 / np.sqrt(2.0 * dbl[ok])  # sqrt(area) / (2 area), with dbl = 2 area
-    m = len(F)
-    rows = (3 * np.arange(m)[:, None] + np.arange(3)[None, :])  # (m, 3): the three coordinates
-    R, C, D = [], [], []
-    for v in range(3):
-        g = grads[v] * scale[:, None]
-        R.append(rows.ravel())
-        C.append(np.repeat(F[:, v], 3))
-        D.append(g.ravel())
-    B = sp.csr_array((np.concatenate(D), (np.concatenate(R), np.concatenate(C))), shape=(3 * m, len(V)))
-    B.sum_duplicates()
-    return B
+    G, area = gradient_operator(V, F)
+    return sp.csr_array(sp.diags_array(np.repeat(np.sqrt(area), 3)) @ G)
 
 
 def laplacian_root(L, V=None, F=None):

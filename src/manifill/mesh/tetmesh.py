@@ -35,6 +35,7 @@ import scipy.sparse as sp
 from ..errors import MeshError
 from ..validate import as_tets, bbox_diagonal, check_option, unit_scale
 from .edges import EdgeIndex
+from .gradients import tet_gradient_operator
 
 __all__ = ["WEIGHTS", "cell_width", "tet_laplacian", "assemble_tet_laplacian", "tet_mass_matrix",
            "tet_gradient_root", "tet_volumes", "negative_tets"]
@@ -317,21 +318,8 @@ def tet_gradient_root(V, T):
     """
     V, T = as_tets(V, T, allow_unreferenced=True)
     scale = bbox_diagonal(V)
-    P = (V - V.mean(axis=0)) / scale
-    a = P[T[:, 0]]
-    e1, e2, e3 = P[T[:, 1]] - a, P[T[:, 2]] - a, P[T[:, 3]] - a
-    c = [None, np.cross(e2, e3), np.cross(e3, e1), np.cross(e1, e2)]
-    c[0] = -(c[1] + c[2] + c[3])
-    det = np.einsum("ij,ij->i", e1, c[1])  # six times the signed volume
-    # sqrt(|det| / 6) * c_k / det, times sqrt(scale) for the stiffness' units of length
-    f = np.sqrt(np.abs(det) / 6.0 * scale) / det
-    m = len(T)
-    rows = (3 * np.arange(m)[:, None] + np.arange(3)[None, :]).ravel()  # the three coordinates of tet t
-    R = np.tile(rows, 4)
-    C = np.concatenate([np.repeat(T[:, k], 3) for k in range(4)])
-    D = np.concatenate([(c[k] * f[:, None]).ravel() for k in range(4)])
-    B = sp.csr_array((D, (R, C)), shape=(3 * m, len(V)))
-    B.sum_duplicates()
-    return B
+    G, vol = tet_gradient_operator((V - V.mean(axis=0)) / scale, T)
+    # sqrt(volume) grad(phi), times sqrt(scale) for the stiffness' units of length
+    return sp.csr_array(sp.diags_array(np.repeat(np.sqrt(vol * scale), 3)) @ G)
 
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import OptionError
+from ..mesh.gradients import cell_gradients, grid_gradients, tet_gradient_operator, vertex_gradients
 from ..mesh.objects import to_meshio, to_pyvista
 from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result, with_std
 from .tets import boundary_vertices
@@ -83,6 +84,13 @@ class VolumeReconstruction(Result):
             raise OptionError("this solid has no fitted probability model to draw from; use method='gp' "
                               "(manifill.gp_tets, gp_voxels or reconstruct_volume(..., method='gp'))")
         return self.drawer(count, seed)
+
+    def _gradient(self, X, at):
+        if self.form == "voxels":  # differences on the grid: one gradient per voxel either way
+            return grid_gradients(X, self.mask, self.spacing)
+        G, vol = tet_gradient_operator(self.TV, self.TT)
+        g = cell_gradients(G, X)
+        return g if at == "cells" else vertex_gradients(self.TT, vol, g, len(self.TV))
 
     def _domain(self):
         if self.form == "voxels":

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import OptionError
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, with_std
+from ..mesh.gradients import cell_gradients, gradient_operator, vertex_gradients
 from ..mesh.objects import to_meshio
 from ..mesh.objects import to_pyvista
 from .locate import locate_points
@@ -73,6 +74,18 @@ class Reconstruction(Result):
     source: object = None
     #: the method that made it (its :meth:`draws` for :meth:`sample`); not a field of the result's files
     made_by: object = field(default=None, repr=False, compare=False)
+
+    def _gradient(self, X, at):
+        if self.F is None:
+            raise OptionError("a digital surface (voxels) has no triangles to take a gradient on; reconstruct on a "
+                              "triangle mesh, or take the volume's gradient")
+        G, area = gradient_operator(self.V, self.F)
+        g = cell_gradients(G, X)
+        if at == "cells":
+            return g
+        V, F = np.asarray(self.V, dtype=np.float64), np.asarray(self.F, dtype=np.int64)
+        N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])  # area-weighted normals (twice)
+        return vertex_gradients(F, area, g, len(V), normals=N / np.maximum(2.0 * area, 1e-300)[:, None])
 
     def _domain(self):
         kind = "vertices" if self.F is not None else "surface voxels"

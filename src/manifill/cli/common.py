@@ -27,7 +27,8 @@ from ..surface.methods.registry import METHODS, method_of
 
 __all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
            "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
-           "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws", "add_draws"]
+           "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws", "add_draws",
+           "VECTOR_OUTPUTS", "gradient_names"]
 
 
 def check_order(mesh, samples):
@@ -267,10 +268,11 @@ def check_names(args, S, out):
     """The field names against the output's format and manifill's masks, and --field, before the work."""
 
     check_field_names(S.names, out)
-    added = [name for name in std_names(args, S.names) if name in S.names]
+    added = [name for name in std_names(args, S.names) + gradient_names(args, S.names, Path(out).suffix)
+             if name in S.names]
     if added:
-        raise WriteError(f"field name {added[0]!r} is also the name of a std this run writes; rename the value "
-                         f"column")
+        raise WriteError(f"field name {added[0]!r} is also the name of a field this run adds (a std, a draw, a "
+                         f"gradient); rename the value column")
     chosen_field(args, S.names)
 
 
@@ -454,6 +456,18 @@ def add_draws(args, r, names, data):
     if len(names) == 1 and D.ndim == r.values.ndim + 1:  # one field: its axis put back
         D = D[..., None, :]
     data.update({f"{name}_draw{i + 1}": D[..., j, i] for j, name in enumerate(names) for i in range(args.draws)})
+
+
+#: Outputs that hold a vector per point (the gradient as one array); others get one column per component.
+VECTOR_OUTPUTS = (".vtu", ".vtp", ".vtk", ".vti")
+
+
+def gradient_names(args, names, suffix):
+    """The point fields --gradient adds for ``names`` in an output of ``suffix``."""
+    if not getattr(args, "gradient", False):
+        return []
+    parts = [""] if suffix.lower() in VECTOR_OUTPUTS else ["_x", "_y", "_z"]
+    return [f"grad_{name}{p}" for name in names for p in parts + ["_norm"]]
 
 
 def std_names(args, names):

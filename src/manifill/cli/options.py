@@ -9,7 +9,7 @@ from ..surface.methods.registry import method_of, names
 from ..linalg.backends import SOLVERS
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
-           "check_workers", "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
+           "gradient_args", "check_workers", "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
 
 #: What --method takes: every method of the registry, then its presets (``default``).
 METHODS = names()
@@ -62,6 +62,13 @@ def output_args(s):
     g.add_argument("-v", "--verbose", action="store_true", help="also print the time of every step")
 
 
+
+
+def gradient_args(s):
+    """--gradient: the fields' gradients beside them."""
+    s.add_argument("--gradient", action="store_true",
+                   help="also write each field's gradient per vertex (voxel), grad_<field> (a vector in VTK files; "
+                        "grad_<field>_x, _y, _z in others), and its magnitude grad_<field>_norm")
 
 
 def series_args(s):

@@ -13,8 +13,9 @@ from .common import (add_draws, bounds_arg, check_draws, check_names, field_list
                      print_time, step_bar, print_uncertainty, std_names, surface_outputs, uncertainty_opts,
                      write_surface)
 from .series import SERIES_OUTPUTS, is_series, run_series
-from .options import (energy_args, fill_args, output_args, picture_args, pipeline_args, sample_args, series_args,
-                      uncertainty_args)
+from .gradients import add_gradient
+from .options import (energy_args, fill_args, gradient_args, output_args, picture_args, pipeline_args, sample_args,
+                      series_args, uncertainty_args)
 
 __all__ = ["add_parser", "run"]
 
@@ -31,6 +32,7 @@ def add_parser(sub):
     pipeline_args(s)
     energy_args(s)
     uncertainty_args(s)
+    gradient_args(s)
     series_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
@@ -56,9 +58,15 @@ def run(args):
     # (auto hands the positions on: its choice uses them as the library's auto does)
     exact = method_of(options.method).at_points
     check_draws(args, options.method)
+    if args.gradient and args.subdivide:
+        raise OptionError("--gradient and --subdivide: the gradient is of the field on the mesh as given; leave one "
+                          "out")
     if args.draws and args.subdivide:
         raise OptionError("--draws and --subdivide: the draws are on the mesh as given; leave one out")
     if is_series(args.samples, out, args.chunk):
+        if args.gradient:
+            raise OptionError(f"--gradient writes one result's gradient, and {Path(args.samples).name} holds a time "
+                              f"series; leave --gradient out, or reconstruct one time step")
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
                               f"(-o OUT.xdmf)")
@@ -85,7 +93,8 @@ def run(args):
     data = r.point_data(S.names)
     add_draws(args, r, S.names, data)
     added = {key: data[key] for key in std_names(args, S.names) if key in data}
-    _write(args, out, V, F, X, S, data, added)
+    grads = add_gradient(args, r, S.names, data, out.suffix)
+    _write(args, out, V, F, X, S, data, {**added, **{key: data[key] for key in grads}})
     _summary(args, r, V, S)
     print_uncertainty(r.report, r.std, r.trusted)
     print_time(args, r.report["seconds"])

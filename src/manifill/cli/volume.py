@@ -13,7 +13,8 @@ from ..surface.methods.registry import method_of
 from ..viz.render import render, render_slices
 from .common import (add_draws, check_draws, check_names, check_outputs, chosen_field, levels, print_time,
                      print_uncertainty, std_names, step_bar, uncertainty_opts)
-from .options import SOLVERS, WEIGHTS, output_args, pipeline_args, uncertainty_args
+from .gradients import add_gradient
+from .options import SOLVERS, WEIGHTS, gradient_args, output_args, pipeline_args, uncertainty_args
 
 __all__ = ["add_parser", "run"]
 
@@ -55,6 +56,7 @@ def add_parser(sub):
                                      "values and --bounds samples); gp: a Matern Gaussian process over the whole "
                                      "solid (no surface pass; --fill-solver its solver), with its std")
     uncertainty_args(s)
+    gradient_args(s)
     s.add_argument("--render", default=None, metavar="OUT.png",
                    help="also render three slices through the solid (voxels) or its boundary (tets) as a PNG")
     s.add_argument("--field", default=None, metavar="NAME",
@@ -167,10 +169,11 @@ def _volume_write(args, out, ext, r, S, form):
     X = r.fields()
     data = r.point_data(S.names)
     add_draws(args, r, S.names, data)
+    grads = add_gradient(args, r, S.names, data, ext)
     if form == "voxels":
         # a .npy holds the one field alone
         write_vti(out, data if ext == ".vti" else {S.names[0]: X[..., 0]}, spacing=r.spacing, origin=r.origin)
-        added = [k for k in std_names(args, S.names) if k in data]
+        added = [k for k in std_names(args, S.names) if k in data] + grads
         if ext != ".vti" and added:
             print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .vti for "
                   f"them)")

@@ -22,15 +22,23 @@ __all__ = ["gradient_operator", "tet_gradient_operator", "cell_gradients", "vert
 
 
 def _assemble(cells, coeffs, n):
-    """The ``(3m, n)`` matrix with ``coeffs[k]`` ((m, 3)) in the three rows of cell ``t`` and column ``cells[t, k]``."""
-    m = len(cells)
-    rows = (3 * np.arange(m)[:, None] + np.arange(3)[None, :]).ravel()
-    R = np.tile(rows, cells.shape[1])
-    C = np.concatenate([np.repeat(cells[:, k], 3) for k in range(cells.shape[1])])
-    D = np.concatenate([coeffs[k].ravel() for k in range(cells.shape[1])])
-    G = sp.csr_array((D, (R, C)), shape=(3 * m, n))
-    G.sum_duplicates()
-    return G
+    """The ``(3m, n)`` matrix with ``coeffs[k]`` ((m, 3)) in the three rows of cell ``t`` and column ``cells[t, k]``.
+
+    Built as CSR directly (``k`` entries per row, in the cell's order): a COO matrix summed over duplicates took
+    three times libigl's ``grad`` at 655k vertices.
+    """
+    m, k = cells.shape
+    it = np.int32 if max(3 * m * k, n) < 2**31 - 1 else np.int64  # scipy's own index type: no conversion
+    indices = np.repeat(cells.astype(it, copy=False), 3, axis=0).ravel()
+    data = np.stack(coeffs, axis=-1).ravel()  # (m, 3, k): row 3t + c, entry k
+    indptr = np.arange(0, 3 * m * k + 1, k, dtype=it)
+    return sp.csr_array((data, indices, indptr), shape=(3 * m, n))
+
+
+def _cross(a, b):
+    """Row-wise cross products of (m, 3) arrays (np.cross is several times slower on many short rows)."""
+    return np.column_stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]])
 
 
 def gradient_operator(V, F):
@@ -50,14 +58,14 @@ def gradient_operator(V, F):
         V = np.column_stack([V, np.zeros(len(V))])
     F = np.asarray(F, dtype=np.int64)
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    N = np.cross(b - a, c - a)
+    N = _cross(b - a, c - a)
     dbl = np.linalg.norm(N, axis=1)  # twice the area
     ok = dbl > 0
     unit = np.zeros_like(N)
     unit[ok] = N[ok] / dbl[ok, None]
     inv = np.zeros_like(dbl)
     inv[ok] = 1.0 / dbl[ok]
-    coeffs = [np.cross(unit, e) * inv[:, None] for e in (c - b, a - c, b - a)]
+    coeffs = [_cross(unit, e) * inv[:, None] for e in (c - b, a - c, b - a)]
     return _assemble(F, coeffs, len(V)), 0.5 * dbl
 
 
@@ -76,7 +84,7 @@ def tet_gradient_operator(V, T):
     T = np.asarray(T, dtype=np.int64)
     a = V[T[:, 0]]
     e1, e2, e3 = V[T[:, 1]] - a, V[T[:, 2]] - a, V[T[:, 3]] - a
-    c = [None, np.cross(e2, e3), np.cross(e3, e1), np.cross(e1, e2)]
+    c = [None, _cross(e2, e3), _cross(e3, e1), _cross(e1, e2)]
     c[0] = -(c[1] + c[2] + c[3])
     det = np.einsum("ij,ij->i", e1, c[1])  # six times the signed volume
     inv = np.zeros_like(det)

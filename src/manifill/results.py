@@ -275,6 +275,23 @@ class Result(ABC):
         G = G.reshape(G.shape[:-2] + D.shape[self.point_ndim:] + (3,))
         return g, np.std(G, axis=-2, ddof=1)
 
+    def gradient_data(self, names=None, *, vector=True):
+        """The fields' gradients per point, named as files hold them: ``grad_<name>`` (3-vectors) or
+        ``grad_<name>_x``, ``_y``, ``_z`` (``vector=False``), and ``grad_<name>_norm``, for each field."""
+        names = self.field_names if names is None else field_names(names, self.fields().shape[-1])
+        G = self.gradient()
+        if G.ndim == self.values.ndim + 1 and self.values.ndim == self.point_ndim:
+            G = G[..., None, :]  # one field: its axis put back
+        out = {}
+        for j, name in enumerate(names):
+            g = G[..., j, :]
+            if vector:
+                out[f"grad_{name}"] = g
+            else:
+                out.update({f"grad_{name}_{c}": g[..., i] for i, c in enumerate("xyz")})
+            out[f"grad_{name}_norm"] = np.linalg.norm(g, axis=-1)
+        return out
+
     def _gradient(self, X, at):
         """The gradient of the fields ``X`` (points first) where :meth:`gradient` says (a domain with cells
         overrides this)."""

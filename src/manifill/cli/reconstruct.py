@@ -129,6 +129,10 @@ def _summary(args, r, V, S):
     """The lines that say what ran: samples, Step 1, the method, the partition, the fill."""
     rep = r.report
     print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {field_list(S.names)})")
+    dropped = rep.get("mesh", {}).get("unreferenced_vertices")
+    if dropped:
+        print(f"{dropped:,} {'vertex is' if dropped == 1 else 'vertices are'} used by no face: left out, NaN in the "
+              f"output (--clean removes them)")
     if "points" in rep and rep["points"]["located"] != "nearest vertex":
         pt = rep["points"]
         print(f"located {pt['points']:,} positions on the surface: {pt['inside_faces']:,} inside faces, "

@@ -28,7 +28,7 @@ table. For other folds or candidates, call :func:`cross_validate` and pass
 import numpy as np
 
 from ..errors import OptionError, SampleError
-from ..validate import as_mesh, as_samples, as_values, check_option
+from ..validate import as_indices, as_mesh, as_samples, as_values, check_option
 from .crossval_result import CrossValidation
 from .engine import reconstruct_surface
 from .folds import MIN_SAMPLES, fold_labels, label_of, run_folds
@@ -37,6 +37,7 @@ from .methods.auto import AUTO_CANDIDATES, AUTO_FOLDS
 from .methods.registry import configure, method_of, names
 from .points import is_positions
 from .surface import Surface
+from .unreferenced import compact
 
 __all__ = ["CANDIDATES", "AUTO_CANDIDATES", "AUTO_FOLDS", "MIN_SAMPLES", "CrossValidation", "cross_validate",
            "fold_labels", "candidates_of"]
@@ -153,7 +154,12 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
             raise OptionError("pass F=None with a Surface (it has its own triangles, or none)")
         surface = V
     else:
-        V, F = as_mesh(V, F, allow_degenerate=base.fill.weights in ("uniform", "robust"))
+        V, F = as_mesh(V, F, allow_degenerate=base.fill.weights in ("uniform", "robust"), allow_unreferenced=True)
+        cm = compact(V, F)  # vertices used by no face take no part (the held-out samples are on faces)
+        if cm is not None:
+            V, F = cm.V, cm.F
+            if not is_positions(idx):
+                idx = cm.indices(as_indices(idx, cm.n, what="idx", unique=False))
         surface = Surface.from_mesh(V, F, distance=base.fill.distance, check=False)
     cands = candidates_of(methods, digital=surface.F is None)
     duplicates, max_distance = base.points.duplicates, base.points.max_distance

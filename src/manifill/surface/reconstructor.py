@@ -36,6 +36,7 @@ from .points import is_positions, point_samples
 from .prepared import Prepared
 from .samples import weights_by_vertex
 from .surface import Surface
+from .unreferenced import compact
 
 __all__ = ["Reconstructor", "MATRIX_FORMS"]
 
@@ -99,7 +100,11 @@ class Reconstructor:
             raise OptionError(f"fields={fields!r} is not a whole number >= 1 (how many fields you will "
                               f"reconstruct); pass one, or None for many")
         self._source = V if is_mesh_object(V) else None  # its own arrays go back out with the result
-        V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"))
+        V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"), allow_unreferenced=True)
+        self._compact = compact(V, F)  # vertices used by no face: left out, NaN in the result
+        n_full = len(V)
+        if self._compact is not None:
+            V, F = self._compact.V, self._compact.F
         self.method, self._method = o.method, method_of(o.method)
         self.default = o.preset is not None
         self._located, self._raw = None, idx
@@ -111,7 +116,9 @@ class Reconstructor:
         elif o.points.max_distance is not None:
             raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
         else:
-            self._raw = as_indices(idx, len(V), what="idx", unique=False)
+            self._raw = as_indices(idx, n_full, what="idx", unique=False)
+            if self._compact is not None:
+                self._raw = self._compact.indices(self._raw)
             self.samples = self._raw.size
             if weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
                 weights = weights_by_vertex(self._raw, weights, np.unique(self._raw))
@@ -205,7 +212,7 @@ class Reconstructor:
         if squeeze:
             r.values = r.values[:, 0]
             r.std = None if r.std is None else r.std[:, 0]
-        return r
+        return r if self._compact is None else self._compact.expand(r)
 
     def apply(self, vals, *, progress=None):
         """The reconstruction of ``vals``: what :func:`manifill.reconstruct` gives for them.
@@ -268,7 +275,7 @@ class Reconstructor:
             raise OptionError(f"this reconstruction is not linear in the sample values ({self._why}), so it has no "
                               f"matrix; use apply(vals), or a linear configuration (e.g. method='gvf-harmonic' with "
                               f"curve_values='hermite', or method='harmonic', without bounds)")
-        n, k = self.surface.n, self.samples
+        n, k = self.surface.n if self._compact is None else self._compact.n, self.samples
         options = self._plain()
         if form == "auto":
             form = "sparse" if self._method.sparse_map else "operator"

@@ -56,7 +56,8 @@ def main(argv=None):
     prev = None
     for level in (int(x) for x in a.levels.split(",")):
         r = run(level)
-        rate = "" if prev is None else f", rate {np.log2(prev['rms'] / r['rms']):.2f} (RMS) {np.log2(prev['max'] / r['max']):.2f} (max)"
+        rate = "" if prev is None else (f", rate {np.log2(prev['rms'] / r['rms']):.2f} (RMS) "
+                                        f"{np.log2(prev['max'] / r['max']):.2f} (max)")
         igl = f", igl.grad {r['igl_s']:.3f} s (per face equal to {r['igl_diff']:.1e})" if "igl_s" in r else ""
         print(f"n={r['n']:,}: per-vertex error max {r['max']:.2e}, RMS {r['rms']:.2e}{rate}; per face "
               f"{r['face_s']:.3f} s, per vertex {r['vertex_s']:.3f} s{igl}", flush=True)

@@ -224,8 +224,7 @@ def test_loo_summary_calls_a_std_off_when_the_errors_disagree():
     assert wide["rms_z"] == pytest.approx(0.4 * ok["rms_z"]) and narrow["within_1.96"] < 0.7
 
 
-@pytest.mark.skipif(not gaussian.cholmod_available(), reason="the [cholmod] extra (scikit-sparse) is not installed "
-                                                             "-> pip install -e '.[cholmod]'")
+@pytest.mark.skipif(not gaussian.cholmod_available(), reason="the [cholmod] extra (scikit-sparse) is not installed")
 def test_one_factor_with_the_samples_last_gives_mean_variance_draws_and_leave_one_out():
     Q, B = _matern()
     Y = np.random.default_rng(2).standard_normal((IDX.size, 2))

@@ -22,8 +22,7 @@ from manifill.mesh.laplacian import laplacian, mass_matrix
 from manifill.mesh.roots import gradient_root
 
 BACKENDS = ["superlu", pytest.param("cholmod", marks=pytest.mark.skipif(
-    not cholmod_available(), reason="the [cholmod] extra (scikit-sparse) is not installed -> pip install -e "
-                                    "'.[cholmod]'"))]
+    not cholmod_available(), reason="the [cholmod] extra (scikit-sparse) is not installed"))]
 
 
 def _irregular_sphere(level=3, seed=0):

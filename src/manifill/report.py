@@ -79,11 +79,12 @@ def _loo_lines(loo):
     if not off:
         return [line]
     worst = max(off, key=lambda x: abs(math.log(x["rms_z"])))
+    field = "this field" if len(loo) == 1 else f"field {worst.get('field', 0) + 1} of {len(loo)}"
     if worst["verdict"] == "too wide":
-        what = (f"  the std looks about {1 / worst['rms_z']:.1f}x too wide on this field (smoother than the fitted "
+        what = (f"  the std looks about {1 / worst['rms_z']:.1f}x too wide on {field} (smoother than the fitted "
                 f"model): its intervals are conservative")
     else:
-        what = (f"  the std looks about {worst['rms_z']:.1f}x too narrow on this field (rougher than the fitted "
+        what = (f"  the std looks about {worst['rms_z']:.1f}x too narrow on {field} (rougher than the fitted "
                 f"model): treat it as a lower bound, or pass noise='auto'")
     return [line, what]
 

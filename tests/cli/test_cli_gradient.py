@@ -63,7 +63,9 @@ def test_other_outputs_hold_one_column_per_component(tmp_path, capsys, flat, suf
     else:
         cols = meshio.read(out).point_data
     g = np.column_stack([cols[f"grad_u_{c}"] for c in "xyz"])
-    np.testing.assert_allclose(cols["grad_u_norm"], np.linalg.norm(g, axis=1), rtol=1e-9)
+    want = manifill.reconstruct(flat["V"], flat["F"], flat["idx"], flat["t"] ** 2, method="harmonic").gradient()
+    np.testing.assert_allclose(g, want, rtol=1e-9, atol=1e-9)  # each column its own component
+    np.testing.assert_allclose(cols["grad_u_norm"], np.linalg.norm(want, axis=1), rtol=1e-9)
     assert "grad_u" not in cols and np.abs(g[:, 2]).max() < 1e-12  # flat: no z component
 
 
@@ -97,3 +99,9 @@ def test_what_cannot_take_a_gradient_ends_in_one_line(tmp_path, capsys, flat):
     code, out, err = run(capsys, "reconstruct", flat["path"], named, "-o", tmp_path / "n.vtu", "--gradient")
     assert "'grad_t_norm' is also the name of a field this run adds" in assert_usage_error(code, out, err)
     assert files(tmp_path) == sorted(before + ["named.csv"])
+
+
+def test_a_time_series_output_takes_no_gradient(tmp_path, capsys, flat):
+    code, out, err = run(capsys, "reconstruct", flat["path"], flat["two"], "-o", tmp_path / "s.xdmf", "--gradient")
+    line = assert_usage_error(code, out, err)
+    assert "-o s.xdmf writes a time series" in line and not (tmp_path / "s.xdmf").exists()

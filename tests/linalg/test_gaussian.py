@@ -242,3 +242,30 @@ def test_one_factor_with_the_samples_last_gives_mean_variance_draws_and_leave_on
     # draws: zero at the samples, covariance Q_ff^-1 (the same draws as the general path, same generator)
     d1, d2 = c.draws(3, np.random.default_rng(4)), plain.draws(3, np.random.default_rng(4))
     assert np.all(d1[IDX] == 0) and np.abs(d1 - d2).max() < 1e-9 * np.abs(d2).max()
+
+
+def test_auto_variance_falls_back_to_sampling_when_the_exact_one_cannot_be_read(monkeypatch):
+    from manifill.errors import ResourceError
+
+    Q, B = _matern()
+
+    def refuse(factor):
+        raise ResourceError("the selected inversion needs about 9 GB but only 1 GB of memory is available")
+
+    monkeypatch.setattr(gaussian, "SelectedInverse", refuse)
+    v, info = Conditional(Q, B, IDX).variance("auto", samples=20)
+    assert info["how"] == "sampled" and "needs about 9 GB" in info["why"] and np.all(v[IDX] == 0)
+    with pytest.raises(ResourceError, match="9 GB"):
+        Conditional(Q, B, IDX).variance("exact")
+
+
+@pytest.mark.skipif(not gaussian.cholmod_available(), reason="the [cholmod] extra (scikit-sparse) is not installed")
+def test_many_samples_leave_the_shared_factor_for_the_two_factor_path(monkeypatch):
+    Q, B = _matern()
+    Y = np.random.default_rng(6).standard_normal((IDX.size, 1))
+    shared = Conditional(Q, B, IDX, factoriser="cholesky", definite=True)
+    monkeypatch.setattr(gaussian, "SAMPLES_LAST_MAX", IDX.size - 1)
+    apart = Conditional(Q, B, IDX, factoriser="cholesky", definite=True)
+    assert shared._sl is not None and apart._sl is None
+    assert np.abs(shared.extend(Y) - apart.extend(Y)).max() < 1e-10
+    assert np.abs(shared.variance("exact")[0] - apart.variance("exact")[0]).max() < 1e-10

@@ -138,3 +138,13 @@ def test_an_indefinite_matrix_is_refused_with_the_cause():
     A = sp.csc_matrix(np.array([[1.0, 2.0], [2.0, 1.0]]))
     with pytest.raises(SolveError, match="not positive definite"):
         cholesky(A, "superlu")
+
+
+def test_a_factor_that_lost_entries_of_its_pattern_is_refused_not_misread():
+    # L[2, 1] = 0 exactly: SuperLU drops it, and the pattern is no longer closed under elimination
+    A = sp.csc_matrix(np.array([[1.0, 1, 1, 0], [1, 3, 1, 0], [1, 1, 3, 1], [0, 0, 1, 3]]))
+    with pytest.raises(SolveError, match="lost entries of its pattern"):
+        SelectedInverse(cholesky(A, "superlu", order=np.arange(4)))
+    if cholmod_available():  # CHOLMOD keeps the zero
+        d = SelectedInverse(cholesky(A, "cholmod")).diagonal()
+        assert np.allclose(d, np.diag(np.linalg.inv(A.toarray())))

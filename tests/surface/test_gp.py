@@ -499,3 +499,21 @@ def test_the_std_is_checked_on_the_samples_by_leaving_each_out():
         else:
             assert loo[0]["verdict"] == "too wide" and loo[0]["rms_z"] < 0.5
             assert any("too wide on this field" in line for line in lines)
+
+
+def test_the_leave_one_out_check_is_reported_in_the_fields_order():
+    """Fields fitted apart make groups in another order than the fields': the check still follows the fields."""
+    from manifill.report import uncertainty_lines
+
+    V, F = icosphere(3)
+    idx, _ = _samples(len(V), 130, 5)
+    smooth = np.sin(2 * V[:, 0]) + V[:, 1]
+    rough = np.random.default_rng(0).standard_normal(len(V))
+    Y = np.column_stack([smooth, rough, smooth])[idx]
+    r = manifill.reconstruct(V, F, idx, Y, method="gp", gp={"share": False})
+    loo = r.report["gp"]["variance"]["loo"]
+    alone = [manifill.reconstruct(V, F, idx, Y[:, j], method="gp").report["gp"]["variance"]["loo"][0]["rms_z"]
+             for j in range(3)]
+    assert [x["rms_z"] for x in loo] == pytest.approx(alone, rel=1e-6)
+    assert loo[0]["verdict"] == "too wide" and loo[1]["verdict"] == "calibrated"
+    assert any("too wide on field 1 of 3" in line for line in uncertainty_lines(r.report, r.std))

@@ -80,3 +80,14 @@ def test_the_command_line_says_how_many_and_writes_nan(tmp_path, capsys):
     assert "1 vertex is used by no face: left out, NaN in the output" in out
     t = meshio.read(tmp_path / "o.vtu").point_data["t"]
     assert np.isnan(t[stray]).all() and np.isfinite(t[o2n]).all()
+
+
+def test_the_gps_draws_and_gradient_std_skip_the_strays():
+    V, F, o2n, stray = _with_strays()
+    r = manifill.reconstruct(V, F, o2n[IDX0], FIELD[IDX0], method="gp", gp={"range": 1.0, "sigma": 1.0})
+    r0 = manifill.reconstruct(V0, F0, IDX0, FIELD[IDX0], method="gp", gp={"range": 1.0, "sigma": 1.0})
+    D, D0 = r.sample(4, seed=3), r0.sample(4, seed=3)
+    assert D.shape == (len(V), 4) and np.isnan(D[stray]).all()
+    assert np.abs(D[o2n] - D0).max() < 1e-9 * np.abs(D0).max()  # the same draws as on the clean mesh
+    _, s = r.gradient(return_std=True, draws=8)
+    assert np.isnan(s[stray]).all() and np.isfinite(s[o2n]).all()

@@ -65,8 +65,8 @@ def run(args):
         raise OptionError("--draws and --subdivide: the draws are on the mesh as given; leave one out")
     if is_series(args.samples, out, args.chunk):
         if args.gradient:
-            raise OptionError(f"--gradient writes one result's gradient, and {Path(args.samples).name} holds a time "
-                              f"series; leave --gradient out, or reconstruct one time step")
+            raise OptionError(f"--gradient writes one result's gradient, and -o {out.name} writes a time series; "
+                              f"leave --gradient out, or write one result (-o OUT.vtu, .vtp, .ply or .csv)")
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
                               f"(-o OUT.xdmf)")

@@ -33,11 +33,11 @@ import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 
-from ..errors import OptionError
+from ..errors import OptionError, ResourceError, SolveError
 from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
-from .selinv import Factor, SamplesLast, SelectedInverse, cholesky, cholmod_available
+from .selinv import SAMPLES_LAST_MAX, Factor, SamplesLast, SelectedInverse, cholesky, cholmod_available
 from .sparselik import LOO_MAX, loo_residuals
 
 __all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "factoriser_for", "loo_summary",
@@ -96,7 +96,7 @@ class Conditional:
         t0 = time.perf_counter()
         self._sl = None
         if eta is None and factoriser == "cholesky" and rows is None and definite and cholmod_available() \
-                and 0 < self.k < self.n:  # one factor for the mean, the variance and the leave-one-out check
+                and 0 < self.k < self.n and self.k <= SAMPLES_LAST_MAX:  # one factor for mean, variance and check
             self.eta = None
             self._sl = SamplesLast(self.Q, self.idx)
             self._Qfs = sp.csr_array(self.Q[self._sl.free][:, self.idx])
@@ -186,7 +186,7 @@ class Conditional:
         if how not in VARIANCES:
             raise OptionError(f"variance={how!r} is not one of {', '.join(VARIANCES)}; pass one of those")
         u = self.unknowns()
-        why = None
+        why, requested = None, how
         if how == "auto":
             how = "exact" if exact_by_default(u) else "sampled"
             if how == "sampled":
@@ -194,8 +194,14 @@ class Conditional:
                        f"(pip install 'manifill[cholmod]', which needs libsuitesparse-dev)")
         t0 = time.perf_counter()
         if how == "exact":
-            var, info = self._exact()
-        else:
+            try:
+                var, info = self._exact()
+            except (ResourceError, SolveError) as exc:  # chosen by auto: the Monte Carlo estimate instead
+                if why is not None or self.B is None or requested != "auto":
+                    raise
+                how, why = "sampled", f"the exact variance could not be read ({exc})"
+                self._factor_used = None  # nor the leave-one-out check, which would factorise again
+        if how == "sampled":
             samples = int(samples)
             if samples < 2:
                 raise OptionError(f"samples={samples} is too few for a variance and its error; pass 2 or more")
@@ -323,8 +329,8 @@ def variance_summary(infos):
     for key in ("rel_se_median", "rel_se_max"):
         if key in out:
             out[key] = float(max(i[key] for i in infos))
-    if all("loo" in i for i in infos):
-        out["loo"] = [x for i in infos for x in i["loo"]]
+    if all("loo" in i for i in infos):  # in the fields' order (the groups hold fields of any order)
+        out["loo"] = sorted((x for i in infos for x in i["loo"]), key=lambda x: x.get("field", 0))
     return out
 
 

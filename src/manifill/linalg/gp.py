@@ -426,7 +426,7 @@ def _posterior(shape, idx, rows, Y, opts, hyper, solver, with_std, report):
         var, info = cond.variance(opts.variance, samples=opts.samples, seed=opts.seed)
         loo = cond.loo(data, 0.0 if known else "constant")  # exact vertex data: leave-one-out, one more factor
         if loo is not None:
-            info["loo"] = [loo_summary(loo[:, i] / math.sqrt(s2[j])) for i, j in enumerate(cols)]
+            info["loo"] = [{**loo_summary(loo[:, i] / math.sqrt(s2[j])), "field": j} for i, j in enumerate(cols)]
         extra = 0.0 if known else (1.0 - Z[:, -1]) ** 2 / a
         for j in cols:
             std[:, j] = np.sqrt(np.maximum(s2[j] * (var + extra), 0.0))

@@ -27,14 +27,15 @@ from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
-from .selinv import Factor, SamplesLast, SelectedInverse, cholesky
+from .selinv import SAMPLES_LAST_MAX, Factor, SamplesLast, SelectedInverse, cholesky
 
 __all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood", "LOO_MAX", "loo_residuals"]
 
 _LOG2PI = math.log(2.0 * math.pi)
 
-#: Most samples whose leave-one-out residuals :func:`loo_residuals` computes (a dense ``m x m`` block).
-LOO_MAX = 5_000
+#: Most samples whose leave-one-out residuals :func:`loo_residuals` computes (a dense ``m x m`` block of a factor
+#: with the samples last: :data:`manifill.linalg.selinv.SAMPLES_LAST_MAX`).
+LOO_MAX = SAMPLES_LAST_MAX
 
 
 def spd_logdet(A):
@@ -149,7 +150,7 @@ class VertexLikelihood:
         Qff = Q[free][:, free]
         Qsf = sp.csr_array(Q[idx][:, free])
         Qss = Q[idx][:, idx]
-        if factors.name == "cholmod" and not slope:  # one factor, the samples last: log det R = -log det S
+        if factors.name == "cholmod" and not slope and len(idx) <= SAMPLES_LAST_MAX:  # log det R = -log det S
             sl = factors.samples_last(Q, idx)
             self.logdet_r = -sl.logdet_schur()
             solve_ff = sl.solve_free

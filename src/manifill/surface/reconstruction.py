@@ -74,6 +74,8 @@ class Reconstruction(Result):
     source: object = None
     #: the method that made it (its :meth:`draws` for :meth:`sample`); not a field of the result's files
     made_by: object = field(default=None, repr=False, compare=False)
+    #: for a mesh with vertices used by no face, the renumbering it ran on (:mod:`manifill.surface.unreferenced`)
+    compact: object = field(default=None, repr=False, compare=False)
 
     def _gradient(self, X, at):
         if self.F is None:
@@ -95,7 +97,9 @@ class Reconstruction(Result):
         if self.made_by is None:
             raise OptionError("this result does not know the method that made it (built by hand?); reconstruct "
                               "with method='gp' to draw from its posterior")
-        out = self.made_by.draws(self, count, seed)
+        c = self.compact  # vertices used by no face: drawn on the mesh without them, NaN there
+        out = self.made_by.draws(self if c is None else c.shrink(self), count, seed)
+        out = out if c is None else c.full(out)
         return out[:, 0, :] if np.ndim(self.values) == 1 else out
 
     def at(self, points, *, return_std=False, max_distance=None):

@@ -7,6 +7,8 @@ vertices used by no face, the curves, samples and located points in the original
 -2 there, and ``report['mesh']['unreferenced_vertices']`` saying how many.
 """
 
+import copy
+
 import numpy as np
 
 from ..errors import SampleError
@@ -59,7 +61,25 @@ class Compact:
             p.vertex = np.where(p.vertex >= 0, self.keep[np.maximum(p.vertex, 0)], -1)
         r.V, r.F = self.V_full, self.F_full
         r.report.setdefault("mesh", {})["unreferenced_vertices"] = int(self.dropped)
+        r.compact = self
         return r
+
+    def shrink(self, r):
+        """A shallow copy of the expanded result ``r`` in the renumbered mesh (what its method drew from)."""
+        out = copy.copy(r)
+        out.values = np.asarray(r.values)[self.keep]
+        out.std = None if r.std is None else r.std[self.keep]
+        out.idx = None if r.idx is None else self.new[r.idx]
+        out.V, out.F, out.compact = self.V, self.F, None
+        if r.points is not None:
+            p = out.points = copy.copy(r.points)
+            p.corners, p.nearest_vertex = self.new[p.corners], self.new[p.nearest_vertex]
+            p.vertex = np.where(p.vertex >= 0, self.new[np.maximum(p.vertex, 0)], -1)
+        return out
+
+    def full(self, X):
+        """Rows of the renumbered mesh (e.g. draws) in the caller's numbering, NaN at the vertices no face uses."""
+        return self._full(np.asarray(X, dtype=np.float64), np.nan)
 
 
 def compact(V, F):

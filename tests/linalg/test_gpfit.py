@@ -245,3 +245,39 @@ def test_leave_one_out_residuals_are_universal_krigings_refits(mean):
     order = rng.permutation(len(free))  # any order of the other vertices: the same residuals
     got = loo_residuals(Q, idx, Y, order, mean)
     assert np.abs(got - want).max() < 1e-9 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("centre", [-0.9, -0.3, 0.12, 0.55, 1.1])
+def test_the_costly_search_finds_the_minimum_in_few_calls(centre):
+    from manifill.linalg.gpfit import bounded_search
+
+    calls = []
+
+    def f(x):
+        calls.append(x)
+        return (x - centre) ** 2 + 0.3 * (x - centre) ** 4 + 0.05 * math.sin(3 * x)
+
+    xs = np.linspace(-2, 2, 40001)
+    best = xs[np.argmin([f(x) for x in xs])]
+    calls.clear()
+    x, v = bounded_search(f, -2.0, 2.0, 3, parabolic=True)
+    used = len(calls)
+    interior = int(np.argmin([f(g) for g in (-2.0, 0.0, 2.0)])) == 1  # the grid's best in the middle: parabolas
+    assert abs(x - best) < 0.03 and v == pytest.approx(f(x))
+    assert used <= (3 + 6 if interior else 3 + 1 + 12)
+    calls.clear()
+    xb, _ = bounded_search(f, -2.0, 2.0, 3)  # Brent: the same minimum
+    assert abs(xb - best) < 0.03
+
+
+def test_the_costly_search_stops_at_an_end_that_holds_the_minimum():
+    from manifill.linalg.gpfit import bounded_search
+
+    calls = []
+    down = lambda x: calls.append(x) or -x  # noqa: E731  (decreasing: the minimum at the upper end)
+    x, _ = bounded_search(down, 0.0, 1.0, 3, parabolic=True)
+    assert x == 1.0 and len(calls) == 4
+    calls.clear()
+    near = lambda x: calls.append(x) or (x - 0.9) ** 2  # noqa: E731  (the grid's best is the end, the minimum inside)
+    x, _ = bounded_search(near, 0.0, 1.0, 3, parabolic=True)
+    assert abs(x - 0.9) < 0.03

@@ -105,3 +105,12 @@ def test_a_time_series_output_takes_no_gradient(tmp_path, capsys, flat):
     code, out, err = run(capsys, "reconstruct", flat["path"], flat["two"], "-o", tmp_path / "s.xdmf", "--gradient")
     line = assert_usage_error(code, out, err)
     assert "-o s.xdmf writes a time series" in line and not (tmp_path / "s.xdmf").exists()
+
+
+def test_a_method_whose_gradient_jumps_says_so(tmp_path, capsys, flat):
+    code, out, err = run(capsys, "reconstruct", flat["path"], flat["two"], "-o", tmp_path / "d.vtu", "--gradient")
+    assert code == 0, err
+    assert "gives a field with kinks at its samples and curves, so its gradient jumps there" in out
+    code, out, err = run(capsys, "reconstruct", flat["path"], flat["two"], "-o", tmp_path / "b.vtu", "--gradient",
+                         "--method", "biharmonic")
+    assert code == 0 and "kinks" not in out

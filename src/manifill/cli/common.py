@@ -213,12 +213,13 @@ def chosen_field(args, names):
     """The field ``--field`` names (the first by default), checked before the work.
 
     ``names`` are the value fields; ``--field`` may also name what the run adds (:func:`std_names`:
-    ``<field>_std``, ``trusted``).
+    ``<field>_std``, ``trusted``; with --gradient, ``grad_<field>_norm``).
     """
     name = getattr(args, "field", None)
     if name is None:
         return names[0]
     choices = list(names) + [n for n in std_names(args, names) if n not in names]
+    choices += [f"grad_{n}_norm" for n in names] if getattr(args, "gradient", False) else []
     if name not in choices:
         raise OptionError(f"--field {name!r} is not one of the fields ({', '.join(choices)}); pick one of them")
     return name

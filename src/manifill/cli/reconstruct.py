@@ -94,12 +94,18 @@ def run(args):
     add_draws(args, r, S.names, data)
     added = {key: data[key] for key in std_names(args, S.names) if key in data}
     grads = add_gradient(args, r, S.names, data, out.suffix)
+    if grads and not method.smooth_gradient and not method.delegates:
+        kinks = "samples and curves" if method.partitions else "samples"
+        print(f"note: {r.report.get('method', options.method)} gives a field with kinks at its {kinks}, so its "
+              f"gradient jumps there; --method biharmonic, triharmonic or gp give smooth gradients")
     _write(args, out, V, F, X, S, data, {**added, **{key: data[key] for key in grads}})
     _summary(args, r, V, S)
     print_uncertainty(r.report, r.std, r.trusted)
     print_time(args, r.report["seconds"])
     print_ranges(X, S, out)
-    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}", extra=added)
+    norms = {key: data[key] for key in grads if key.endswith("_norm")}  # scalars a picture can show
+    pictures(args, V, F, X, S.names, samples=S.idx, curves=r.curves, title=f"{args.method or 'default'}",
+             extra={**added, **norms})
     return 0
 
 

@@ -8,7 +8,7 @@ name:
   constrained where they are, not at the nearest vertex), ``gives_std`` (a std through
   ``uncertainty``), ``gp_mean`` (the Gaussian process's own mean and std),
   ``needs_triangles``, ``sparse_map`` (its linear map is sparse), ``partitions`` (it runs
-  Steps 2-3);
+  Steps 2-3), ``smooth_gradient`` (its gradient has no jumps at the samples or curves);
 - :meth:`Method.steps`: the steps it runs (a progress bar's total);
 - :meth:`Method.check`: refuse an option it cannot use, with a one-line error;
 - :meth:`Method.linear`: whether its result is linear in the values (then it has a map);
@@ -58,6 +58,9 @@ class Method:
     needs_triangles = False
     sparse_map = False
     partitions = False
+    #: Its field's gradient is free of jumps at the samples and curves (harmonic fills have kinks there: on a
+    #: smooth field their gradients were 10x further off than the biharmonic's, docs/benchmarks.md).
+    smooth_gradient = False
     #: It runs other methods and returns their result (``auto``): no candidate of cross-validation itself.
     delegates = False
     #: What it suggests when it wins a cross-validation (appended to the recommendation), or "".

@@ -31,7 +31,7 @@ class Energy(Method):
 
     def __init__(self, name, k, summary):
         self.name, self.k, self.summary = name, k, summary
-        self.needs_triangles = k > 1
+        self.needs_triangles = self.smooth_gradient = k > 1
         self.step_names = ("check", f"{name} fill")
 
     def linear(self, options):

@@ -21,6 +21,7 @@ class Matern(Method):
     name = "gp"
     summary = "a Matérn Gaussian process on the mesh: mean and std; range, sigma and noise fitted or given"
     at_points = True
+    smooth_gradient = True
     gives_std = True
     gp_mean = True
     needs_triangles = True

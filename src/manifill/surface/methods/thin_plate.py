@@ -27,6 +27,7 @@ class ThinPlate(Method):
     name = "rbf"
     summary = "SciPy's thin-plate spline on the positions: fields that live in space; leaks across gaps"
     can_smooth = True
+    smooth_gradient = True
     at_points = True  # through the points themselves when every one was located (exact_at says)
     cv_hint = "the field looks like it lives in space rather than on the surface"
     step_names = ("check", "rbf")

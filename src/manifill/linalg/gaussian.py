@@ -220,8 +220,8 @@ class Conditional:
         if self._sl is not None:
             return self._sl.free_factor()
         backend = self._backend if self.eta is not None else self._qs.backend
-        own = getattr(backend, "factor", None)
-        if isinstance(own, Factor) and (self.eta is not None or self.rows is None):
+        own = getattr(backend, "factor", None)  # with rows the solver factorised the KKT system: no Factor
+        if isinstance(own, Factor):
             return own
         M = self.P if self.eta is not None else self.Q[free][:, free]
         return cholesky(M)

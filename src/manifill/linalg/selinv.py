@@ -28,15 +28,12 @@ from scipy.sparse.linalg import splu
 from ..errors import SolveError
 from ..memory import check_fits
 
-__all__ = ["Factor", "cholesky", "cholmod_available", "SamplesLast", "SAMPLES_LAST_MAX", "SelectedInverse",
-           "inverse_diagonal"]
+__all__ = ["Factor", "cholesky", "cholmod_available", "cholmod_module", "from_cholmod", "superlu_spd", "SamplesLast",
+           "SAMPLES_LAST_MAX", "SelectedInverse", "inverse_diagonal", "NOT_DEFINITE"]
 
-#: Most observed nodes :class:`SamplesLast` orders last: their block of the factor is dense, ``m^2`` entries and
-#: ``m^3 / 3`` flops, and the rows above it fill in (41k vertices, 10,000 samples: 21.8 s and 2.5 GB against
-#: 0.83 s and 0.3 GB for the factor of ``Q_ff`` alone; at 1,000 samples it saved a quarter of a fit's trial).
-
-_NOT_DEFINITE = ("the precision is not positive definite to working precision (degenerate elements?); clean the "
-                 "mesh, or pass variance='sampled'")
+#: The one message of a precision that will not factorise.
+NOT_DEFINITE = ("the precision is not positive definite to working precision (degenerate elements?); clean the "
+                 "mesh (or, for the std, pass variance='sampled')")
 
 
 class Factor:
@@ -66,7 +63,8 @@ class Factor:
         return np.asarray(self._solve(B)).reshape(B.shape)
 
 
-def _cholmod():
+def cholmod_module():
+    """scikit-sparse's ``cholmod`` (the ``[cholmod]`` extra), or None."""
     try:
         from sksparse import cholmod
     except ImportError:
@@ -76,7 +74,23 @@ def _cholmod():
 
 def cholmod_available():
     """Whether scikit-sparse's CHOLMOD (the ``[cholmod]`` extra) imports."""
-    return _cholmod() is not None
+    return cholmod_module() is not None
+
+
+def from_cholmod(f):
+    """The :class:`Factor` of a scikit-sparse CHOLMOD factor ``f`` (its supernodes converted to CSC)."""
+    return Factor(f.L(), f.P(), "cholmod", f.solve_A)
+
+
+def superlu_spd(A, natural=False):
+    """``(lu, d)``: SuperLU's ``A[p][:, p] = L D L'`` of a symmetric positive definite CSC ``A`` (symmetric mode, no
+    pivoting off the diagonal, so ``U = D L'``; ``natural``: ``A``'s own order), ``d`` the pivots."""
+    lu = splu(A, permc_spec="NATURAL" if natural else "MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+              options={"SymmetricMode": True})
+    d = lu.U.diagonal()
+    if not (np.all(d > 0) and np.array_equal(lu.perm_r, lu.perm_c)):
+        raise SolveError(NOT_DEFINITE)
+    return lu, d
 
 
 @contextlib.contextmanager
@@ -108,27 +122,21 @@ def cholesky(A, backend="auto", order=None):
     if order is not None:
         order = np.asarray(order, dtype=np.int64)
         A = sp.csc_matrix(A[order][:, order])
-    cholmod = _cholmod() if backend in ("auto", "cholmod") else None
+    cholmod = cholmod_module() if backend in ("auto", "cholmod") else None
     if cholmod is not None:
         try:
-            f = cholmod.cholesky(A, ordering_method="natural" if order is not None else "default")
+            f = from_cholmod(cholmod.cholesky(A, ordering_method="natural" if order is not None else "default"))
         except cholmod.CholmodNotPositiveDefiniteError:
-            raise SolveError(_NOT_DEFINITE) from None
-        L, p, name, solve = f.L(), f.P(), "cholmod", f.solve_A
+            raise SolveError(NOT_DEFINITE) from None
     else:
-        lu = splu(A, permc_spec="MMD_AT_PLUS_A" if order is None else "NATURAL", diag_pivot_thresh=0.0,
-                  options={"SymmetricMode": True})
-        d = lu.U.diagonal()
-        if not (np.all(d > 0) and np.array_equal(lu.perm_r, lu.perm_c)):
-            raise SolveError(_NOT_DEFINITE)
-        # Pr A Pc = L U with Pr = Pc' from the same permutation, and U = D L' (no pivoting off the diagonal)
-        L = sp.csc_matrix(lu.L) @ sp.diags_array(np.sqrt(d))
+        lu, d = superlu_spd(A, natural=order is not None)
+        # Pr A Pc = L U with Pr = Pc' from the same permutation, and U = D L'
         p = np.empty_like(lu.perm_c)
         p[lu.perm_c] = np.arange(len(p))
-        name, solve = "superlu", lu.solve
+        f = Factor(sp.csc_matrix(lu.L) @ sp.diags_array(np.sqrt(d)), p, "superlu", lu.solve)
     if order is None:
-        return Factor(L, p, name, solve)
-    return Factor(L, order[p], name, _reordered(solve, order))
+        return f
+    return Factor(f.L, order[f.p], f.name, _reordered(f._solve, order))
 
 
 def _reordered(solve, order):
@@ -140,6 +148,9 @@ def _reordered(solve, order):
     return out
 
 
+#: Most observed nodes :class:`SamplesLast` orders last: their block of the factor is dense, ``m^2`` entries and
+#: ``m^3 / 3`` flops, and the rows above it fill in (41k vertices, 10,000 samples: 21.8 s and 2.5 GB against
+#: 0.83 s and 0.3 GB for the factor of ``Q_ff`` alone; at 1,000 samples it saved a quarter of a fit's trial).
 SAMPLES_LAST_MAX = 2_000
 
 
@@ -156,7 +167,7 @@ class SamplesLast:
     """
 
     def __init__(self, Q, idx, symbolic=None):
-        cholmod = _cholmod()
+        cholmod = cholmod_module()
         Q = sp.csc_matrix(Q)
         n = Q.shape[0]
         self.idx = np.asarray(idx, dtype=np.int64)
@@ -173,7 +184,7 @@ class SamplesLast:
                 symbolic["natural"] = cholmod.analyze(A, ordering_method="natural")
             self._f = symbolic["natural"].cholesky(A)
         except cholmod.CholmodNotPositiveDefiniteError:
-            raise SolveError(_NOT_DEFINITE) from None
+            raise SolveError(NOT_DEFINITE) from None
         self._L = None
 
     @property
@@ -338,7 +349,7 @@ def _sweep(lay, lb, sb):
         Sb = sb[o:o + h * s].reshape((s, h)).T
         Linv, info = la.lapack.dtrtri(Lb[:s], lower=1)  # (OpenBLAS's threaded trsm took 20x as long here)
         if info != 0:
-            raise SolveError(_NOT_DEFINITE)
+            raise SolveError(NOT_DEFINITE)
         if h == s:
             Sb[:] = Linv.T @ Linv
             continue

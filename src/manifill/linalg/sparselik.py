@@ -23,11 +23,11 @@ import math
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
-from .selinv import SAMPLES_LAST_MAX, Factor, SamplesLast, SelectedInverse, cholesky
+from .selinv import (NOT_DEFINITE, SAMPLES_LAST_MAX, SamplesLast, SelectedInverse, cholesky, cholmod_available,
+                     cholmod_module, from_cholmod, superlu_spd)
 
 __all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood", "LOO_MAX", "loo_residuals"]
 
@@ -47,29 +47,15 @@ def spd_logdet(A):
     >>> round(ld, 12) == round(math.log(6.0), 12), f.solve(np.array([2.0, 3.0])).tolist()
     (True, [1.0, 1.0])
     """
-    lu = splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-              options={"SymmetricMode": True})
-    d = lu.U.diagonal()
-    if not np.all(d > 0):
-        raise SolveError("the precision is not positive definite to working precision (degenerate elements?); "
-                         "clean the mesh")
+    lu, d = superlu_spd(sp.csc_matrix(A))
     return lu, float(np.log(d).sum())
-
-
-def _cholmod():
-    """scikit-sparse's CHOLMOD (the ``[cholmod]`` extra), or None."""
-    try:
-        from sksparse import cholmod
-    except ImportError:
-        return None
-    return cholmod
 
 
 def sparse_fit_pays():
     """Whether a fit on every sample through :class:`VertexLikelihood` pays: with CHOLMOD (the ``[cholmod]``
     extra) it took 5.7 s where the dense fit on a subset of 200 took 21 s (41k vertices, 1,000 samples, side by
     side), 27.5 s against 84.5 s at 163k; with SuperLU alone 22.7 s at 41k and unfinished after 10 minutes at 163k."""
-    return _cholmod() is not None
+    return cholmod_available()
 
 
 class LogdetFactors:
@@ -81,7 +67,7 @@ class LogdetFactors:
     """
 
     def __init__(self):
-        self._cholmod = _cholmod()
+        self._cholmod = cholmod_module()
         self._symbolic = {}
         self._checked = set()
         self.name = "cholmod" if self._cholmod is not None else "superlu"
@@ -118,11 +104,8 @@ class LogdetFactors:
                 self._symbolic[key] = self._cholmod.analyze(A)
             f = self._symbolic[key].cholesky(A)
         except self._cholmod.CholmodNotPositiveDefiniteError:
-            raise SolveError("the precision is not positive definite to working precision (degenerate "
-                             "elements?); clean the mesh") from None
-        if selected:
-            return Factor(f.L(), f.P(), "cholmod", f.solve_A), float(f.logdet())
-        return f, float(f.logdet())
+            raise SolveError(NOT_DEFINITE) from None
+        return (from_cholmod(f) if selected else f), float(f.logdet())
 
 
 

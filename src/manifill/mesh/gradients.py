@@ -8,7 +8,7 @@ solves ``[v1 - v0, v2 - v0, v3 - v0] g = [x1 - x0, x2 - x0, x3 - x0]`` (:func:`t
 exact for linear fields.
 
 Per vertex, :func:`vertex_gradients` averages the gradients of the cells around it weighted by their areas (or
-volumes) and, on a surface, keeps the part tangent to the surface (the area-weighted vertex normal's plane): on a
+volumes) and, on a surface, keeps the part tangent to the surface (the vertex normal's plane): on a
 sphere the error falls with the edge length. On a voxel grid, :func:`grid_gradients` takes central differences
 where both neighbours are in the solid and one-sided ones at its wall (exact for linear fields too).
 
@@ -111,9 +111,10 @@ def vertex_gradients(cells, measure, grads, n, normals=None):
         :func:`cell_gradients`.
     n : int
         Vertices.
-    normals : (m, 3) array, optional
-        The cells' unit normals (surfaces): the average is projected onto the plane of the area-weighted vertex
-        normal, so that the vertex gradient is tangent to the surface.
+    normals : (n, 3) array, optional
+        Unit vertex normals (surfaces: e.g. the area-weighted ones of
+        :func:`manifill.surface.curve_values.vertex_normals`): the average is projected onto their planes, so that
+        the vertex gradient is tangent to the surface.
 
     Returns
     -------
@@ -130,9 +131,7 @@ def vertex_gradients(cells, measure, grads, n, normals=None):
         out = (W @ flat) / total[:, None]
         out = out.reshape((n,) + grads.shape[1:])
         if normals is not None:
-            N = W @ normals
-            N /= np.linalg.norm(N, axis=1, keepdims=True)
-            Nb = N if grads.ndim == 2 else N[:, None, :]
+            Nb = normals if grads.ndim == 2 else normals[:, None, :]
             out = out - np.sum(out * Nb, axis=-1, keepdims=True) * Nb
     out[total <= 0] = np.nan
     return out

@@ -9,6 +9,7 @@ from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, wit
 from ..mesh.gradients import cell_gradients, gradient_operator, vertex_gradients
 from ..mesh.objects import to_meshio
 from ..mesh.objects import to_pyvista
+from .curve_values import vertex_normals
 from .locate import locate_points
 
 __all__ = ["Reconstruction"]
@@ -86,8 +87,7 @@ class Reconstruction(Result):
         if at == "cells":
             return g
         V, F = np.asarray(self.V, dtype=np.float64), np.asarray(self.F, dtype=np.int64)
-        N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])  # area-weighted normals (twice)
-        return vertex_gradients(F, area, g, len(V), normals=N / np.maximum(2.0 * area, 1e-300)[:, None])
+        return vertex_gradients(F, area, g, len(V), normals=vertex_normals(V, F))
 
     def _domain(self):
         kind = "vertices" if self.F is not None else "surface voxels"

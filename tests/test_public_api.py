@@ -18,6 +18,7 @@ from manifill.results import Result
 POSITIONAL = {
     # geometry
     "V", "F", "T",  # vertices, triangles, tetrahedra: (V, F) a surface, (V, T) a solid
+    "P",  # the points of a point cloud (Surface.from_points)
     "mask",  # a voxel solid (its spacing and origin are options: each defaults to the unit grid)
     "surface",  # a prepared manifill.Surface (reconstruct_surface, values_on_curves, fill_patches)
     "G",  # the graph of a surface (check_gradual, partition)

@@ -192,7 +192,7 @@ def bad_case(tmp_path, case):
     if case == "missing mesh":
         mesh, word = tmp_path / "nope.ply", "no such file"
     elif case == "bad mesh extension":
-        mesh, word = tmp_path / "m.xyz", "cannot read"
+        mesh, word = tmp_path / "m.abc", "cannot read"
         mesh.write_text("1 2 3\n")
     elif case == "garbage mesh":
         mesh, word = tmp_path / "g.ply", "not a readable PLY mesh"

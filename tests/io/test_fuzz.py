@@ -43,8 +43,8 @@ from hypothesis import strategies as st
 from manifill.errors import ManifillError, MeshError, ReadError, SampleError
 from manifill.surface.samples import Samples
 from manifill.mesh.shapes import icosphere
-from manifill.io import (read_mask, read_mesh_file, read_samples, read_tets, read_vti, write_mesh, write_tets,
-                         write_vti)
+from manifill.io import (read_barriers, read_mask, read_mesh_file, read_samples, read_tets, read_vti, write_mesh,
+                         write_tets, write_vti)
 
 COUNT = int(os.environ.get("MANIFILL_FUZZ_COUNT", "0") or 0)
 #: examples per (format, strategy) and per command: 60 in CI, N in the counting mode
@@ -151,6 +151,25 @@ def _build_seeds(folder):
     add("stl_binary", "m.stl", "mesh", lambda p: meshio.write(p, meshio.Mesh(V, [("triangle", F)]), binary=True))
     add("surf_gii", "m.surf.gii", "mesh", lambda p: nib.save(_gifti_surface(nib, V, F), p), text=True)
     add("freesurfer", "lh.pial", "mesh", lambda p: nib.freesurfer.write_geometry(p, V, F))
+
+    # point clouds (the sphere's vertices, no faces)
+    cloud = meshio.Mesh(V, [], point_data={"t": t})
+    add("points_xyz", "p.xyz", "points", lambda p: p.write_text(
+        "# x y z\n" + "".join(f"{a!r} {b!r} {c!r}\n" for a, b, c in V.tolist())), text=True)
+    add("points_csv", "p.csv", "points", lambda p: p.write_text(
+        "x,y,z,t\n" + "".join(f"{a!r},{b!r},{c!r},{v!r}\n" for (a, b, c), v in zip(V.tolist(), t.tolist()))),
+        text=True)
+    add("points_ply_ascii", "p.ply", "points", lambda p: meshio.write(p, cloud, binary=False), text=True)
+    add("points_ply_binary", "p.ply", "points", lambda p: meshio.write(p, cloud, binary=True))
+    add("points_vtp_ours", "p.vtp", "points", lambda p: write_mesh(p, V, None, {"t": t}))
+    add("points_vtk_ours", "p.vtk", "points", lambda p: write_mesh(p, V, None, {"t": t}))
+
+    # barriers: paths of vertex indices, positions, per-face labels
+    add("barriers_txt", "b.txt", "barriers", lambda p: p.write_text("# walls\n0 1 2 3\n10, 11, 12\n"), text=True)
+    add("barriers_csv", "b.csv", "barriers", lambda p: p.write_text(
+        "barrier,x,y,z\n" + "".join(f"{j % 2},{a!r},{b!r},{c!r}\n" for j, (a, b, c) in enumerate(V[:6].tolist()))),
+        text=True)
+    add("barriers_npy", "b.npy", "barriers", lambda p: np.save(p, (V[F].mean(axis=1)[:, 0] > 0).astype(np.int32)))
 
     # tetrahedra
     TV, TT = _cube_tets()
@@ -415,11 +434,18 @@ def _check_points(V):
 
 def check_result(reader, res):
     """Assert that a returned result is consistent (shapes, dtypes, indices in range)."""
-    if reader == "mesh":
+    if reader in ("mesh", "points"):
         _check_points(res.V)
-        _check_faces(res.F, len(res.V), 3, "faces")
+        if res.F is not None or reader == "mesh":
+            _check_faces(res.F, len(res.V), 3, "faces")
         for k, a in res.point_data.items():
             assert a.shape[:1] == (len(res.V),), f"field {k!r} has shape {a.shape}"
+    elif reader == "barriers":
+        if isinstance(res, list):
+            assert res and all(np.asarray(p).ndim in (1, 2) and len(p) for p in res), res
+            assert all(np.isfinite(np.asarray(p, dtype=float)).all() for p in res)
+        else:
+            assert res.ndim == 1 and res.dtype == np.int64, (res.shape, res.dtype)
     elif reader == "tets":
         V, T = res
         _check_points(V)
@@ -443,6 +469,8 @@ def check_result(reader, res):
 
 READERS = {
     "mesh": read_mesh_file,
+    "points": lambda p: read_mesh_file(p, points=True),
+    "barriers": read_barriers,
     "tets": read_tets,
     "vti": read_vti,
     "mask": lambda p: read_mask(p)[0:3],
@@ -633,6 +661,7 @@ def test_damaged_file_is_an_error_or_a_valid_result(tmp_path, capfd, label, stra
 CLI_MESHES = ["ply_ascii", "ply_binary", "off", "obj", "stl_binary", "vtu_ours", "vtu_meshio_zlib", "vtp_pyvista",
               "vtk_pyvista_ascii", "vtk_ours", "vtu_nan", "ply_nan", "surf_gii", "freesurfer"]
 CLI_SAMPLES = ["csv_vertex", "csv_xyz", "npz", "npz_compressed", "npy_struct", "func_gii", "label"]
+CLI_CLOUDS = ["points_xyz", "points_csv", "points_ply_ascii", "points_ply_binary", "points_vtp_ours"]
 CLI_CLASSES = ("exit 0", "exit 1", "exit 2", "FAIL")
 
 
@@ -655,6 +684,9 @@ def cli_inputs(command):
         return [mesh, samples], ["harmonic", 0, 1, "-o", "out.vtu"]
     if command == "check":
         return [mesh, samples], ["check", 0, 1]
+    if command == "cloud":
+        clouds = [seeds()[k] for k in CLI_CLOUDS]
+        return [clouds, samples], ["reconstruct", 0, 1, "-o", "out.vtp", "--method", "harmonic", "-q"]
     return [[seeds()["mask_npy"]], [_volume_samples()]], ["volume", 0, 1, "-o", "out.vti", "-q"]
 
 
@@ -721,14 +753,14 @@ def run_cli(tmp_path, capfd, argv, picked, which, damaged):
         cls, detail = "FAIL", f"left files {left} after exit {code}"
     elif code == 0 and out_name:
         try:  # the output is complete: it reads back
-            (read_vti if out_name.endswith(".vti") else read_mesh_file)(folder / out_name)
+            (read_vti if out_name.endswith(".vti") else lambda p: read_mesh_file(p, points=True))(folder / out_name)
         except ManifillError as exc:
             cls, detail = "FAIL", f"the output does not read back: {exc}"
     shutil.rmtree(folder)
     return cls, detail
 
 
-@pytest.mark.parametrize("command", ["info", "harmonic", "check", "volume"])
+@pytest.mark.parametrize("command", ["info", "harmonic", "check", "volume", "cloud"])
 def test_cli_seeds_run(tmp_path, capfd, command):
     """The undamaged inputs run to exit 0 (else the command fuzzing would test only refusals)."""
     choices, argv = cli_inputs(command)
@@ -740,7 +772,7 @@ def test_cli_seeds_run(tmp_path, capfd, command):
         assert run_cli(tmp_path, capfd, argv, picked, -1, b"") == expected, [s.label for s in picked]
 
 
-@pytest.mark.parametrize("command", ["info", "harmonic", "check", "volume"])
+@pytest.mark.parametrize("command", ["info", "harmonic", "check", "volume", "cloud"])
 @CLI_FUZZ
 @given(case=st.data())
 def test_cli_on_a_damaged_input_exits_0_or_2_with_one_line(tmp_path, capfd, command, case):

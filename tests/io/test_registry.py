@@ -48,8 +48,20 @@ def leftovers(folder, keep=()):
 # ----------------------------------------------------------------------------- mesh round trips
 
 
+@pytest.mark.parametrize("name", ["p.xyz", "p.csv"])
+def test_point_files_are_not_meshes_unless_points_are_taken(tmp_path, name):
+    path = tmp_path / name
+    path.write_text(("x,y,z\n" if name.endswith(".csv") else "") + "".join(
+        f"{i},{i * i},{i % 3}\n" for i in range(9)))
+    with pytest.raises(ReadError, match="holds points, not a mesh.*point cloud"):
+        read_mesh(path)
+    m = read_mesh_file(path, points=True)
+    assert m.F is None and m.V.shape == (9, 3) and m.V[4].tolist() == [4.0, 16.0, 1.0]
+
+
 def test_registry_lists_the_documented_formats():
-    assert set(MESH_FORMATS) == {".off", ".obj", ".ply", ".stl", ".vtk", ".vtu", ".vtp", ".gii"}
+    assert set(MESH_FORMATS) == {".off", ".obj", ".ply", ".stl", ".vtk", ".vtu", ".vtp", ".gii", ".xyz", ".csv"}
+    assert {e for e, f in MESH_FORMATS.items() if f.reader in ("xyz", "csv")} == {".xyz", ".csv"}  # points only
     assert set(FIELD_FORMATS) == {".ply", ".vtk", ".vtu", ".vtp"}
     assert [ext for ext, f in MESH_FORMATS.items() if not f.vertex_numbering] == [".stl"]
 
@@ -201,7 +213,7 @@ def test_fields_in_a_format_without_point_data_raise(tmp_path, ext):
 # ----------------------------------------------------------------------------- read errors
 
 
-@pytest.mark.parametrize("name", ["mesh.xyz", "mesh", "mesh.csv", "mesh.ply.gz"])
+@pytest.mark.parametrize("name", ["mesh.abc", "mesh", "mesh.txt", "mesh.ply.gz"])
 def test_unknown_extension(tmp_path, name):
     V, F = grid(3)
     path = tmp_path / name

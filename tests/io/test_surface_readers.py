@@ -56,7 +56,7 @@ def test_a_vtu_of_solid_cells_only_names_what_it_holds(tmp_path):
     f = tmp_path / "t.vtu"
     meshio.write(f, meshio.Mesh(P, cells[3:]))
     with pytest.raises(ReadError, match=r"^t\.vtu: holds no triangles \(cells found: line, tetra, vertex\); "
-                                        r"pass a surface mesh$"):
+                                        r"for a solid of tetrahedra use 'manifill volume'; pass a surface mesh$"):
         read_mesh_file(f)
 
 

@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import OptionError, SampleError, WriteError
-from ..io import MESH_FORMATS, SAMPLE_FORMATS, VALUE_FORMATS, check_field_names, format_note, read_mesh_file, read_samples, write_mesh
+from ..io import MESH_FORMATS, SAMPLE_FORMATS, read_barriers, VALUE_FORMATS, check_field_names, format_note, read_mesh_file, read_samples, write_mesh
 from ..mesh.clean import clean_mesh
 from .. import progress
 from ..report import uncertainty_lines, value_ranges
@@ -28,32 +28,44 @@ from ..surface.methods.registry import METHODS, method_of
 __all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
            "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
            "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws", "add_draws",
-           "VECTOR_OUTPUTS", "gradient_names"]
+           "VECTOR_OUTPUTS", "gradient_names", "barriers_arg"]
+
+
+def barriers_arg(args):
+    """``--barriers FILE`` read (None without it)."""
+    path = getattr(args, "barriers", None)
+    return None if path is None else read_barriers(path)
 
 
 def check_order(mesh, samples):
     """Refuse MESH and SAMPLES given the wrong way round (a samples file first, a mesh second), in one line."""
     m, s = Path(str(mesh)).suffix.lower(), Path(str(samples)).suffix.lower()
-    if m in SAMPLE_FORMATS and m not in MESH_FORMATS and s in MESH_FORMATS and s not in SAMPLE_FORMATS:
+    if m in SAMPLE_FORMATS and s in MESH_FORMATS and s not in SAMPLE_FORMATS:
         raise OptionError(f"MESH is {Path(str(mesh)).name}, a samples file, and SAMPLES is {Path(str(samples)).name}, "
                           f"a mesh: did you swap them? the order is MESH SAMPLES")
 
 
-def load(args, keep_points=False):
+def load(args, keep_points=False, points=False):
     """Read mesh and samples (checked against the mesh's vertex numbering), optionally cleaning the mesh first.
 
     ``keep_points``: samples given as positions keep them (``S.points``), for the
-    energy methods, which locate them on the surface.
+    energy methods, which locate them on the surface. ``points``: take a point cloud too
+    (a file of points without faces: ``F`` None).
 
     Returns
     -------
-    V, F : numpy arrays
+    V, F : numpy arrays (F None for a point cloud)
     S : manifill.surface.samples.Samples
     """
 
     check_order(args.mesh, args.samples)
-    mesh = read_mesh_file(args.mesh)
+    mesh = read_mesh_file(args.mesh, points=points)
     V, F = mesh.V, mesh.F
+    if F is None:
+        if args.clean:
+            raise OptionError(f"{Path(args.mesh).name} is a point cloud (no faces), and --clean welds meshes; leave "
+                              f"--clean out (merge duplicate points yourself)")
+        print(f"point cloud: {len(V):,} points, no faces")
     # vertex indices refer to the file's numbering, so samples are read against it
     read = dict(duplicates=args.duplicates, max_distance=args.max_snap, vertex_numbering=mesh.vertex_numbering,
                 keep_points=keep_points)

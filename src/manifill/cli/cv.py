@@ -3,8 +3,8 @@
 import time
 
 from ..errors import OptionError
-from .common import bounds_arg, chosen_field, levels, load, smoothing_arg
-from .options import DISTANCES, SOLVERS, WEIGHTS, sample_args
+from .common import barriers_arg, bounds_arg, chosen_field, levels, load, smoothing_arg
+from .options import DISTANCES, SOLVERS, WEIGHTS, cloud_args, sample_args
 
 __all__ = ["add_parser", "run", "parse_methods", "parse_folds"]
 
@@ -30,6 +30,7 @@ def add_parser(sub):
     s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
     s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
     s.add_argument("--distance", choices=DISTANCES, default="length", help="partition distance (default: length)")
+    cloud_args(s)
     s.set_defaults(func=run)
 
 
@@ -97,7 +98,7 @@ def run(args):
     from ..surface.crossval import cross_validate
 
     methods, folds = parse_methods(args.methods), parse_folds(args.folds)
-    V, F, S = load(args, keep_points=True)
+    V, F, S = load(args, keep_points=True, points=True)
     # positions stay positions: the energy methods and rbf constrain them where they are, as reconstruct does
     where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
                                                                          max_distance=args.max_snap)
@@ -107,7 +108,8 @@ def run(args):
         where["vals"], names = where["vals"][:, [names.index(name)]], [name]
     t0 = time.perf_counter()
     cv = cross_validate(V, F, **where, methods=methods, folds=folds, seed=args.seed, weights=args.weights,
-                        solver=args.solver, distance=args.distance, duplicates=args.duplicates)
+                        solver=args.solver, distance=args.distance, duplicates=args.duplicates,
+                        neighbours=args.neighbours, barriers=barriers_arg(args))
     seconds = time.perf_counter() - t0
     print(f"{len(V):,} vertices, {cv.samples:,} samples ({len(names)} field(s): {', '.join(names)})")
     if S.points is not None:

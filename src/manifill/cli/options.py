@@ -120,6 +120,15 @@ def pipeline_args(s, *, method_help="default: the measured default, gvf-harmonic
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
 
 
+def cloud_args(s):
+    """--neighbours (how a point cloud is joined) and --barriers (lines the field must not cross)."""
+    s.add_argument("--neighbours", type=int, default=None, metavar="K",
+                   help="a point cloud's nearest neighbours per point, for its Laplacian and graph (default: 16)")
+    s.add_argument("--barriers", default=None, metavar="FILE",
+                   help="lines the field must not cross: a .txt with one path of vertex indices per line, a .csv of "
+                        "x,y,z[,barrier] points snapped to vertices, or an .npy of per-face labels")
+
+
 def uncertainty_args(s):
     """--uncertainty, --trust, --untrusted and the options of --method gp, shared by reconstruct and volume."""
     g = s.add_argument_group("uncertainty and --method gp (a Matérn Gaussian process)")

@@ -9,12 +9,12 @@ from ..mesh.subdivide import check_subdivide, subdivide
 from ..report import value_columns
 from ..surface.methods.registry import configure, method_of
 from ..surface.reconstruct import reconstruct
-from .common import (add_draws, bounds_arg, check_draws, check_names, field_list, levels, smoothing_arg, load, pictures, print_ranges,
+from .common import (add_draws, barriers_arg, bounds_arg, check_draws, check_names, field_list, levels, smoothing_arg, load, pictures, print_ranges,
                      print_time, step_bar, print_uncertainty, std_names, surface_outputs, uncertainty_opts,
                      write_surface)
 from .series import SERIES_OUTPUTS, is_series, run_series
 from .gradients import add_gradient
-from .options import (energy_args, fill_args, gradient_args, output_args, picture_args, pipeline_args, sample_args,
+from .options import (cloud_args, energy_args, fill_args, gradient_args, output_args, picture_args, pipeline_args, sample_args,
                       series_args, uncertainty_args)
 
 __all__ = ["add_parser", "run"]
@@ -30,6 +30,7 @@ def add_parser(sub):
     sample_args(s)
     fill_args(s)
     pipeline_args(s)
+    cloud_args(s)
     energy_args(s)
     uncertainty_args(s)
     gradient_args(s)
@@ -46,6 +47,7 @@ def options_of(args):
     return configure(method=args.method, partition=args.partition, weights=args.weights, distance=args.distance,
                      levels=levels(args.levels), curve_values=args.curve_values, solver=args.solver,
                      on_empty=args.on_empty, duplicates=args.duplicates, bounds=bounds_arg(args.bounds),
+                     neighbours=getattr(args, "neighbours", None), barriers=barriers_arg(args),
                      smoothing=smoothing_arg(args.smoothing), check=True if getattr(args, "check", False) else None,
                      **uncertainty_opts(args))
 
@@ -76,8 +78,10 @@ def run(args):
             raise OptionError(f"--{flag} runs the chunks of a time series (-o OUT.xdmf, .pvd, .h5 or .npy) on Dask "
                               f"workers; {out.name} is one result: leave --{flag} out, or batch many meshes with "
                               f"'manifill batch'")
-    V, F, S = load(args, keep_points=exact)
+    V, F, S = load(args, keep_points=exact, points=True)
     check_names(args, S, out)
+    if F is None and args.subdivide:
+        raise OptionError("--subdivide refines triangles, and a point cloud has none; leave it out")
     if args.subdivide:
         check_subdivide(len(V), len(F), args.subdivide, len(S.names))
     method = method_of(options.method)
@@ -134,7 +138,16 @@ def _write(args, out, V, F, X, S, data, added):
 def _summary(args, r, V, S):
     """The lines that say what ran: samples, Step 1, the method, the partition, the fill."""
     rep = r.report
-    print(f"{len(V):,} vertices, {S.idx.size:,} samples ({len(S.names)} field(s): {field_list(S.names)})")
+    print(f"{len(V):,} {'points' if 'cloud' in rep else 'vertices'}, {S.idx.size:,} samples ({len(S.names)} field(s): "
+          f"{field_list(S.names)})")
+    if "cloud" in rep:
+        c = rep["cloud"]
+        print(f"point cloud joined by the {c['graph']} ({c['edges']:,} edges, {c['components']} piece"
+              f"{'' if c['components'] == 1 else 's'}, median spacing {c['spacing']:.3g}); --neighbours K changes it")
+    if "barriers" in rep:
+        b = rep["barriers"]
+        print(f"barriers: {b['edges']:,} edges, {b['split_vertices']:,} vertices split, {b['pieces']} piece"
+              f"{'' if b['pieces'] == 1 else 's'} (a split vertex's value: the mean of its sides')")
     dropped = rep.get("mesh", {}).get("unreferenced_vertices")
     if dropped:
         print(f"{dropped:,} {'vertex is' if dropped == 1 else 'vertices are'} used by no face: left out, NaN in the "

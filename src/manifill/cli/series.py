@@ -58,7 +58,7 @@ def run_series(args, out, options, exact):
             raise OptionError(f"--{flag} is not available for a time series; leave it out (open the series in "
                               f"ParaView instead)")
     check_order(args.mesh, args.samples)
-    mesh = read_mesh_file(args.mesh)
+    mesh = read_mesh_file(args.mesh, points=True)
     V, F = mesh.V, mesh.F
     series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
                          vertex_numbering=mesh.vertex_numbering, keep_points=exact)

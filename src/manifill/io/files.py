@@ -21,10 +21,12 @@ import warnings
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import ManifillError, ReadError, WriteError
 
 __all__ = ["atomic_path", "remove_temporaries", "remove_active_temporaries", "ACTIVE", "suffix", "reading", "quiet",
-           "check_count", "check_input_file", "no_triangles", "KILL_ONCE_ENV", "kill_once_for_tests"]
+           "check_count", "check_input_file", "no_triangles", "PointsOnly", "KILL_ONCE_ENV", "kill_once_for_tests"]
 
 #: loggers of the parsers that print their notes through handlers of their own
 _PARSER_LOGGERS = ("nibabel",)
@@ -207,8 +209,24 @@ def check_count(count, path, what, *, bytes_each, start=0):
                         f"bytes follow; the file is truncated or damaged, check it")
 
 
-def no_triangles(path, kinds):
-    """Raise the ReadError of a mesh file that holds no triangles.
+class PointsOnly(ReadError):
+    """A mesh file that holds points and no triangles: a point cloud, for a caller that takes one.
+
+    Attributes
+    ----------
+    V : (n, 3) numpy array or None
+        The points read.
+    point_data : dict
+        The per-point fields read.
+    """
+
+    def __init__(self, message, V=None, point_data=None):
+        super().__init__(message)
+        self.V, self.point_data = V, dict(point_data or {})
+
+
+def no_triangles(path, kinds, V=None, point_data=None):
+    """Raise the ReadError of a mesh file that holds no triangles (a :class:`PointsOnly` carrying its points).
 
     Parameters
     ----------
@@ -216,15 +234,22 @@ def no_triangles(path, kinds):
         The file read.
     kinds : list of str
         The kinds of cells it holds (``'tetra'`` adds a hint to use ``manifill volume``).
+    V : (n, 3) array_like, optional
+        Its points, kept on the exception for a reader that takes point clouds.
+    point_data : dict, optional
+        Its per-point fields.
 
     Raises
     ------
-    ReadError
+    PointsOnly
         Always.
     """
     hint = "; for a solid of tetrahedra use 'manifill volume'" if "tetra" in kinds else ""
-    raise ReadError(f"{Path(path).name}: holds no triangles (cells found: {', '.join(kinds) or 'none'}){hint}; "
-                    f"pass a surface mesh")
+    n = 0 if V is None else len(V)
+    cloud = f" ('manifill reconstruct' takes its {n:,} points as a point cloud)" if n and not hint else ""
+    raise PointsOnly(f"{Path(path).name}: holds no triangles (cells found: {', '.join(kinds) or 'none'}){hint}; "
+                     f"pass a surface mesh{cloud}", None if V is None else np.asarray(V, dtype=np.float64),
+                     point_data)
 
 
 def _space_cause(exc):

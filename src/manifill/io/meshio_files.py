@@ -62,7 +62,8 @@ def read_meshio(path, fmt):
             elif block.type.startswith("polygon") and data.ndim == 2 and data.shape[1] > 4:
                 faces += [data[:, [0, j, j + 1]] for j in range(1, data.shape[1] - 1)]
         if not faces:
-            no_triangles(path, sorted({b.type for b in mesh.cells}))
+            no_triangles(path, sorted({b.type for b in mesh.cells}), mesh.points,
+                         {k: np.asarray(v) for k, v in mesh.point_data.items()})
         F = np.concatenate(faces)
         if F.dtype.kind not in "iu":
             raise ReadError(f"{path.name}: the faces are stored as {F.dtype}, not integers; check the file")

@@ -25,17 +25,18 @@ import numpy as np
 
 from ..errors import ManifillError, ReadError, WriteError
 from ..mesh.objects import mesh_arrays
-from ..validate import as_mesh
+from ..validate import as_mesh, as_vertices, is_mesh_object
 from .field_names import stored_names
-from .files import check_input_file, no_triangles
+from .files import PointsOnly, check_input_file, no_triangles, reading
 from .meshio_files import read_meshio, write_meshio
 from .neuro import read_freesurfer_surface, read_gifti, sniff
+from .points import read_csv_points, read_xyz
 from .vtklegacy_read import read_legacy
 from .vtklegacy_write import write_legacy
 from .vtkxml_read import read_polydata, read_unstructured
 from .vtkxml_write import write_polydata, write_unstructured
 
-__all__ = ["MESH_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh", "read_mesh_file",
+__all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh", "read_mesh_file",
            "reading_once",
            "check_cells", "write_mesh", "write_cells", "format_note"]
 
@@ -82,7 +83,11 @@ MESH_FORMATS = {
     ".obj": MeshFormat("OBJ", "meshio", True, False),
     ".stl": MeshFormat("STL", "meshio", True, False, vertex_numbering=False),
     ".gii": MeshFormat("GIfTI", "gifti", False, True, ("nibabel",), extra="neuro"),
+    ".xyz": MeshFormat("XYZ points", "xyz", False, False),
+    ".csv": MeshFormat("CSV points", "csv", False, False),
 }
+#: The formats a point cloud (points, no faces) is written as, one vertex cell per point (.csv: the values).
+POINT_FORMATS = (".vtp", ".vtu", ".vtk", ".ply")
 #: FreeSurfer triangle surfaces, recognised by their magic number
 FREESURFER = MeshFormat("FreeSurfer surface", "freesurfer", False, False, extra="neuro")
 _READERS_SHOWN = {"meshio": "meshio", "pyvista": "pyvista/VTK/ParaView", "nibabel": "nibabel"}
@@ -95,7 +100,8 @@ class MeshFile:
     Attributes
     ----------
     V : (n, 3) float64 numpy array
-    F : (m, 3) int64 numpy array
+    F : (m, 3) int64 numpy array, or None
+        None for a point cloud (read with ``points=True``).
     point_data : dict of str to (n,) or (n, p) numpy array
         The per-vertex arrays stored with it.
     format : MeshFormat
@@ -169,7 +175,7 @@ def reading_once():
         _READ.reset(token)
 
 
-def read_mesh_file(path):
+def read_mesh_file(path, *, points=False):
     """Read a triangle surface and the per-vertex fields stored with it (parsed once per :func:`reading_once`).
 
     Formats: VTU, VTP, legacy VTK (POLYDATA or UNSTRUCTURED_GRID), PLY, OFF, OBJ,
@@ -180,6 +186,9 @@ def read_mesh_file(path):
     Parameters
     ----------
     path : str or Path
+    points : bool, optional
+        Also take a point cloud: a file with points and no faces (PLY, VTP, VTU, legacy VTK, OBJ),
+        ``.xyz`` or ``.csv`` points (:mod:`manifill.io.points`) gives ``F`` None.
 
     Returns
     -------
@@ -189,22 +198,43 @@ def read_mesh_file(path):
     ------
     ReadError
         A missing file, an unknown extension, a damaged file (one line naming
-        the file), or a file without triangles.
+        the file), or a file without triangles (unless ``points``).
     """
     path = Path(path)
     fmt = mesh_format(path)
     check_input_file(path)
     read = _READ.get()
     if read is None:
-        return _read_mesh_file(path, fmt)
+        return _read_or_points(path, fmt, points)
     st = path.stat()
-    key = (str(path.resolve()), st.st_mtime_ns, st.st_size)
+    key = (str(path.resolve()), st.st_mtime_ns, st.st_size, points)
     if key not in read:
         read.clear()  # one mesh kept: a job's
-        read[key] = _read_mesh_file(path, fmt)
+        read[key] = _read_or_points(path, fmt, points)
     m = read[key]
-    return replace(m, V=m.V.copy(), F=m.F.copy(), point_data={k: a.copy() for k, a in m.point_data.items()},
-                   path=path)
+    return replace(m, V=m.V.copy(), F=None if m.F is None else m.F.copy(),
+                   point_data={k: a.copy() for k, a in m.point_data.items()}, path=path)
+
+
+def _read_or_points(path, fmt, points):
+    if fmt.reader in ("xyz", "csv"):
+        if not points:
+            raise ReadError(f"{path.name}: holds points, not a mesh; pass a surface mesh (or reconstruct on the points "
+                            f"as a point cloud: 'manifill reconstruct {path.name} SAMPLES -o OUT')")
+        with reading(path, fmt.name):
+            P, point_data = (read_xyz if fmt.reader == "xyz" else read_csv_points)(path)
+        return MeshFile(P, None, point_data, fmt, path)
+    try:
+        return _read_mesh_file(path, fmt)
+    except PointsOnly as exc:
+        if not points or exc.V is None or not len(exc.V):
+            raise
+        V = np.asarray(exc.V, dtype=np.float64)
+        if V.ndim == 2 and V.shape[1] == 2:
+            V = np.column_stack([V, np.zeros(len(V))])
+        check_cells(path, V, np.zeros((0, 1), np.int64), "point")
+        data = {str(k): np.asarray(a) for k, a in exc.point_data.items() if np.shape(a)[:1] == (len(V),)}
+        return MeshFile(V, None, data, fmt, path)
 
 
 def _read_mesh_file(path, fmt):
@@ -218,7 +248,8 @@ def _read_mesh_file(path, fmt):
         V, cells, point_data = read_legacy(path)
         F = cells.get("triangle")
         if F is None or len(F) == 0:
-            no_triangles(path, sorted(k for k, c in cells.items() if len(c)))
+            kinds = sorted(k for k, c in cells.items() if len(c))
+            no_triangles(path, kinds, None if "tetra" in kinds else V, point_data)
     elif fmt.reader == "gifti":
         V, F, point_data = read_gifti(path)
     else:
@@ -330,8 +361,9 @@ def write_mesh(path, V, F, point_data=None):
         legacy VTK or PLY (see :data:`MESH_FORMATS` for who reads them back).
     V : (n, 3) numpy array, or a mesh object with ``F=None``
         Vertex positions.
-    F : (m, 3) numpy array of int
-        Triangles.
+    F : (m, 3) numpy array of int, or None
+        Triangles; None with an array ``V`` writes a point cloud (``.vtp``, ``.vtu``, ``.vtk``: one vertex
+        cell per point; ``.ply``: the vertices alone).
     point_data : dict of str to (n,) or (n, p) numpy array, optional
         Named fields. A ``(n, p)`` field is one ``p``-component array in VTU,
         VTP and VTK, and ``p`` scalar fields ``name_0 ... name_{p-1}`` in PLY.
@@ -358,7 +390,15 @@ def write_mesh(path, V, F, point_data=None):
             f"(or the values alone as .csv/.npy)"
         )
     try:
+        if F is None and not is_mesh_object(V):  # a point cloud
+            V = as_vertices(V)
+            if Path(path).suffix.lower() not in POINT_FORMATS:
+                raise WriteError(f"{Path(path).name}: a point cloud is written as {', '.join(POINT_FORMATS)} (or its "
+                                 f"values as .csv); change the name")
+            return write_cells(path, V, np.arange(len(V), dtype=np.int64)[:, None], point_data)
         V, F = as_mesh(*mesh_arrays(V, F), allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    except WriteError:
+        raise
     except ManifillError as exc:
         raise WriteError(f"{Path(path).name}: not written, the mesh is malformed: {exc}") from None
     return write_cells(path, V, F, point_data)
@@ -387,7 +427,7 @@ def write_cells(path, V, C, point_data=None):
         As :func:`write_mesh`.
     """
     ext = Path(path).suffix.lower()
-    kind = "triangle" if C.shape[1] == 3 else "tetra"
+    kind = {1: "vertex", 3: "triangle"}.get(C.shape[1], "tetra")
     names = stored_names(point_data or {}, ext)
     out = {}
     for name, arr in (point_data or {}).items():
@@ -399,11 +439,12 @@ def write_cells(path, V, C, point_data=None):
         else:
             out[key] = arr
     if ext == ".vtp":
-        write_polydata(path, V, C, out)
+        write_polydata(path, V, None if kind == "vertex" else C, out)
     elif ext == ".vtu":
         write_unstructured(path, V, C, out)
     elif ext == ".vtk":
         write_legacy(path, V, kind, C, out)
     else:
-        write_meshio(path, V, [(kind, C.astype(np.int32))], out, "gmsh22" if ext == ".msh" else ext[1:])
+        cells = [] if kind == "vertex" else [(kind, C.astype(np.int32))]  # a cloud's PLY: its vertices alone
+        write_meshio(path, V, cells, out, "gmsh22" if ext == ".msh" else ext[1:])
     return names

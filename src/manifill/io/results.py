@@ -43,6 +43,8 @@ def save_result(result, path, names):
         write_values(path, value_columns(data, columns), names=columns)
     elif ext in VALUE_FORMATS:
         write_values(path, result.fields().reshape(len(result.values), -1), names=names)
+    elif result.F is None and getattr(result, "cloud", None) is not None:  # a point cloud: its points
+        write_mesh(path, np.asarray(result.V), None, data)
     elif result.F is None:
         raise OptionError(f"a digital surface has no triangles to write as {ext or 'a mesh'}; write .csv or .npy "
                           f"(values per vertex)")

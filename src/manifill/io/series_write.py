@@ -107,9 +107,9 @@ def _cells(path, V, F, needed):
     if F is None:
         raise WriteError(f"{path.name}: {path.suffix.lower()} holds the mesh; pass its cells F")
     C = np.asarray(F)
-    if C.dtype.kind not in "iu" or C.ndim != 2 or C.shape[1] not in (3, 4) or len(C) == 0:
-        raise WriteError(f"{path.name}: the cells are {C.dtype} of shape {C.shape}; pass (m, 3) triangles or "
-                         f"(m, 4) tetrahedra as integers")
+    if C.dtype.kind not in "iu" or C.ndim != 2 or C.shape[1] not in (1, 3, 4) or len(C) == 0:
+        raise WriteError(f"{path.name}: the cells are {C.dtype} of shape {C.shape}; pass (m, 3) triangles, "
+                         f"(m, 4) tetrahedra or a point cloud's (n, 1) vertex cells as integers")
     if (C < 0).any() or (C >= len(V)).any():
         raise WriteError(f"{path.name}: a cell uses a vertex outside 0..{len(V) - 1}; pass cells of this mesh")
     return V, C.astype(np.int64)
@@ -124,8 +124,8 @@ class SeriesWriter:
         ``.xdmf``, ``.pvd``, ``.npy``, ``.h5`` or ``.hdf5``.
     V : (n, 3) array_like of float
         Vertex positions.
-    F : (m, 3) or (m, 4) array_like of int, or None
-        Triangles or tetrahedra (``None`` is enough for ``.npy`` and ``.h5``).
+    F : (m, 1), (m, 3) or (m, 4) array_like of int, or None
+        Vertex cells (a point cloud), triangles or tetrahedra (``None`` is enough for ``.npy`` and ``.h5``).
     names : str or list of one str, optional
         The field's name (``'value'`` by default).
     static : dict of str to (n,) or (n, p) array_like, optional
@@ -395,7 +395,7 @@ class _Xdmf:
 
     def add(self, X, times, j0):
         w = self.w
-        topo = "Triangle" if w.C.shape[1] == 3 else "Tetrahedron"
+        topo = {1: 'Polyvertex" NodesPerElement="1', 3: "Triangle"}.get(w.C.shape[1], "Tetrahedron")
         parts = []
         for i in range(X.shape[1]):
             j = j0 + i

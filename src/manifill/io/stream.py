@@ -210,7 +210,9 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
             if W is None and client is not None and progress is not None:  # as each chunk comes back
                 progress(span(s))
             if writer is None:  # the masks do not change in time: given with the first chunk
-                writer = SeriesWriter(path, rec.surface.V, rec.surface.F, names=name, steps=T,
+                s_ = rec.surface  # a point cloud's points are vertex cells
+                cells = np.arange(s_.n)[:, None] if s_.F is None and s_.cloud is not None else s_.F
+                writer = SeriesWriter(path, s_.V, cells, names=name, steps=T,
                                       static=None if str(path).lower().endswith(".npy") else static)
             writer.write(values, times[s:s + step])
             seconds["write"] += time.perf_counter() - t

@@ -16,6 +16,10 @@ from .vtklegacy_scan import MAX_COUNT
 __all__ = ["write_legacy"]
 
 
+#: The cell kinds written: points per cell and VTK's type number (a point cloud's points are vertex cells).
+_CELL_TYPES = {"vertex": (1, 1), "triangle": (3, 5), "tetra": (4, 10)}
+
+
 def write_legacy(path, V, kind, cells, point_data=None):
     """Write a triangle or tetrahedral mesh with named point fields as legacy VTK, atomically.
 
@@ -29,8 +33,8 @@ def write_legacy(path, V, kind, cells, point_data=None):
         The ``.vtk`` file to write.
     V : (n, 3) float numpy array
         Points.
-    kind : {"triangle", "tetra"}
-        What the cells are.
+    kind : {"vertex", "triangle", "tetra"}
+        What the cells are (``vertex``: a point cloud, one cell per point).
     cells : (m, 3) or (m, 4) int numpy array
         Point indices of each triangle or tetrahedron.
     point_data : dict of str to (n,) or (n, p) numpy array, optional
@@ -53,9 +57,9 @@ def write_legacy(path, V, kind, cells, point_data=None):
         raise WriteError(f"{name}: the points are not numbers; pass V as an (n, 3) float array") from None
     if V.ndim != 2 or V.shape[1] != 3:
         raise WriteError(f"{name}: the points have shape {V.shape}, not (n, 3); pass V as an (n, 3) float array")
-    if kind not in ("triangle", "tetra"):
-        raise WriteError(f"{name}: cell kind {kind!r} is neither 'triangle' nor 'tetra'; pass one of them")
-    k = 3 if kind == "triangle" else 4
+    if kind not in _CELL_TYPES:
+        raise WriteError(f"{name}: cell kind {kind!r} is not 'vertex', 'triangle' or 'tetra'; pass one of them")
+    k, vtk_type = _CELL_TYPES[kind]
     try:
         C = np.asarray(cells)
     except (TypeError, ValueError):  # ragged lists
@@ -82,7 +86,7 @@ def write_legacy(path, V, kind, cells, point_data=None):
                 records = np.column_stack([np.full(len(C), k), C]).astype(">i4")
                 fh.write(records.tobytes() + b"\n")
                 fh.write(f"CELL_TYPES {len(C)}\n".encode())
-                fh.write(np.full(len(C), 5 if k == 3 else 10, dtype=">i4").tobytes() + b"\n")
+                fh.write(np.full(len(C), vtk_type, dtype=">i4").tobytes() + b"\n")
                 if fields:
                     fh.write(f"POINT_DATA {n}\nFIELD FieldData {len(fields)}\n".encode())
                     for key, vtype, arr in fields:

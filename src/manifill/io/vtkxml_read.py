@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import ReadError
 from ..tolerances import TOL
+from .files import no_triangles
 from .vtkxml_decode import MAX_COUNT, VtkXmlDocument, guarded
 
 __all__ = ["read_polydata", "read_unstructured", "read_imagedata"]
@@ -136,8 +137,7 @@ def _read_polydata(path):
 
     V, F, data = _read_pieces(doc, triangles)
     if not len(F):
-        raise doc.fail("holds no triangles (no polygon of 3 or more vertices, no triangle strip); "
-                       "pass a surface mesh")
+        no_triangles(path, [], V, data)
     return V, F, data
 
 
@@ -232,7 +232,7 @@ def _read_unstructured(path):
     V, F, data = _read_pieces(doc, triangles)
     if not len(F):
         names = sorted(_VTK_NAMES.get(t, f"type {t}") for t in found)
-        raise doc.fail(f"holds no triangles (cells found: {', '.join(names) or 'none'}); pass a surface mesh")
+        no_triangles(path, names, None if "tetra" in names else V, data)
     return V, F, data
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ManifillError, WriteError
-from ..validate import as_mesh
+from ..validate import as_mesh, as_vertices
 from .files import atomic_path
 from .vtkxml_decode import VTK_TYPES
 
@@ -138,9 +138,10 @@ def _write_cells(path, kind, V, C, arrays, cache=None, constant=()):
         try:
             with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
                 fh.write(_header(kind))
+                verts = m if width == 1 else 0  # a point cloud: one vertex cell per point
                 if kind == "PolyData":
-                    fh.write(f'  <PolyData>\n    <Piece NumberOfPoints="{n}" NumberOfVerts="0" NumberOfLines="0" '
-                             f'NumberOfStrips="0" NumberOfPolys="{m}">\n      <PointData>\n')
+                    fh.write(f'  <PolyData>\n    <Piece NumberOfPoints="{n}" NumberOfVerts="{verts}" NumberOfLines="0" '
+                             f'NumberOfStrips="0" NumberOfPolys="{m - verts}">\n      <PointData>\n')
                 else:
                     fh.write(f'  <UnstructuredGrid>\n    <Piece NumberOfPoints="{n}" NumberOfCells="{m}">\n'
                              f'      <PointData>\n')
@@ -148,13 +149,14 @@ def _write_cells(path, kind, V, C, arrays, cache=None, constant=()):
                     _write_array(fh, key, arr, arr.shape[1], ind, fields if key in constant else None)
                 fh.write("      </PointData>\n      <Points>\n")
                 _write_array(fh, "Points", V, 3, ind, mesh)
-                fh.write("      </Points>\n      " + ("<Polys>\n" if kind == "PolyData" else "<Cells>\n"))
+                tag = ("Verts" if verts else "Polys") if kind == "PolyData" else "Cells"
+                fh.write(f"      </Points>\n      <{tag}>\n")
                 _write_array(fh, "connectivity", C.astype(np.int64), 1, ind, mesh)
                 _write_array(fh, "offsets", width * np.arange(1, m + 1, dtype=np.int64), 1, ind, mesh)
                 if kind == "PolyData":
-                    fh.write("      </Polys>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
+                    fh.write(f"      </{tag}>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
                 else:
-                    _write_array(fh, "types", np.full(m, 5 if width == 3 else 10, dtype=np.uint8), 1, ind, mesh)
+                    _write_array(fh, "types", np.full(m, {1: 1, 3: 5, 4: 10}[width], dtype=np.uint8), 1, ind, mesh)
                     fh.write("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n")
         except OSError as exc:
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path") from None
@@ -173,7 +175,8 @@ def write_polydata(path, V, F, point_data=None):
     path : str or Path
         Destination (conventionally ``.vtp``).
     V : (n, 3) or (n, 2) array_like of float
-    F : (m, 3) array_like of int
+    F : (m, 3) array_like of int, or None
+        Triangles; None writes a point cloud (one vertex cell per point).
     point_data : dict of str to (n,) or (n, p) numpy array, optional
         Named fields; a ``(n, p)`` field is one ``p``-component array. Names are any
         non-empty text without control characters.
@@ -185,7 +188,11 @@ def write_polydata(path, V, F, point_data=None):
         name, a missing folder, or a failure while writing (nothing is left behind).
     """
     try:
-        V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+        if F is None:  # a point cloud: its points as vertex cells
+            V = as_vertices(V)
+            F = np.arange(len(V), dtype=np.int64)[:, None]
+        else:
+            V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     except ManifillError as exc:
         raise WriteError(f"{Path(path).name}: not written, the mesh is malformed: {exc}") from None
     _write_cells(path, "PolyData", V, F, _point_arrays(point_data, len(V)))
@@ -203,8 +210,8 @@ def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=()):
     path : str or Path
         Destination (conventionally ``.vtu``).
     V : (n, 3) array_like of float
-    C : (m, 3) or (m, 4) array_like of int
-        Triangles or tetrahedra, validated by the caller.
+    C : (m, 1), (m, 3) or (m, 4) array_like of int
+        Vertex cells (a point cloud), triangles or tetrahedra, validated by the caller.
     point_data : dict of str to (n,) or (n, p) numpy array, optional
     cache : dict, optional
         For files written one after another with the same mesh (a time series): an empty dict
@@ -220,7 +227,7 @@ def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=()):
     """
     V = np.asarray(V, dtype=np.float64)
     C = np.asarray(C, dtype=np.int64)
-    if V.ndim != 2 or V.shape[1] != 3 or C.ndim != 2 or C.shape[1] not in (3, 4):
+    if V.ndim != 2 or V.shape[1] != 3 or C.ndim != 2 or C.shape[1] not in (1, 3, 4):
         raise WriteError(f"{Path(path).name}: points {V.shape} and cells {C.shape}; pass (n, 3) points and "
                          f"(m, 3) triangles or (m, 4) tetrahedra")
     _write_cells(path, "UnstructuredGrid", V, C, _point_arrays(point_data, len(V)), cache, constant)

@@ -64,6 +64,12 @@ class GPOptions:
         Seed of the sampled variance and of the fit's subset.
     fit_samples : int
         The likelihood is evaluated on at most this many samples (a random subset).
+    barrier : {'cut', 'bakka'}
+        With ``barriers=``: the mesh cut along them (default; nothing correlates across), or Bakka et al.'s
+        barrier model (2019): the faces along the barriers keep the mesh whole but their range is
+        ``barrier_range`` times the field's, so correlation leaks across them only weakly.
+    barrier_range : float in (0, 1]
+        The barrier faces' range as a fraction of the range (``barrier='bakka'``).
     """
 
     alpha: int = 2
@@ -76,6 +82,8 @@ class GPOptions:
     samples: int = 100
     seed: int = 0
     fit_samples: int = 200
+    barrier: str = "cut"
+    barrier_range: float = 0.1
 
 
 def _positive(name, v, zero=False):
@@ -104,7 +112,7 @@ def as_gp_options(gp):
     Traceback (most recent call last):
     ...
     manifill.errors.OptionError: gp option 'ragne' is not one of alpha, range, sigma, noise, mean, share, \
-variance, samples, seed, fit_samples; pass those names
+variance, samples, seed, fit_samples, barrier, barrier_range; pass those names
     """
     if gp is None:
         o = GPOptions()
@@ -120,6 +128,11 @@ variance, samples, seed, fit_samples; pass those names
         raise OptionError(f"gp= must be a dict or a manifill.GPOptions, not {type(gp).__name__}; pass one of those")
     if o.alpha not in ALPHAS:
         raise OptionError(f"gp alpha={o.alpha!r} is not one of {ALPHAS}; pass alpha=1 or alpha=2")
+    if o.barrier not in ("cut", "bakka"):
+        raise OptionError(f"gp barrier={o.barrier!r} is not 'cut' or 'bakka'; pass one of those")
+    if not (isinstance(o.barrier_range, (int, float)) and 0 < o.barrier_range <= 1):
+        raise OptionError(f"gp barrier_range={o.barrier_range!r} is not a number in (0, 1] (the barrier faces' "
+                          f"range as a fraction of the field's); pass e.g. 0.1")
     if o.variance not in VARIANCES:
         raise OptionError(f"gp variance={o.variance!r} is not one of {', '.join(VARIANCES)}; pass one of those")
     mean = o.mean

@@ -140,7 +140,7 @@ class VertexLikelihood:
         else:
             f_ff, ld_ff = factors.factor("Q_ff", Qff, selected=slope)
             f_k, ld_k = factors.factor("K", shape.K(kappa), selected=slope)
-            ld_q = ld_k if shape.alpha == 1 else 2.0 * ld_k - float(np.log(shape.c).sum())
+            ld_q = ld_k if shape.alpha == 1 else 2.0 * ld_k - float(np.log(shape.mid).sum())
             self.logdet_r = ld_ff - ld_q
             solve_ff = f_ff.solve if slope else f_ff
         self.m = len(idx)

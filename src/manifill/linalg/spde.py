@@ -100,6 +100,9 @@ class MaternShape:
     alpha : {1, 2}
     d : int
         The domain's dimension (2 for surfaces, 3 for solids).
+    c_mid : (n,) numpy array, optional
+        The white noise's lumped mass where it differs from ``c`` (Bakka's barrier model: the barrier
+        faces' part scaled by the squared range fraction): ``Q / tau^2 = K diag(c_mid)^-1 K``.
 
     Examples
     --------
@@ -118,12 +121,14 @@ class MaternShape:
     root_G: object
     alpha: int
     d: int
+    c_mid: np.ndarray = None
 
     def __post_init__(self):
         if self.alpha not in ALPHAS:
             raise OptionError(f"alpha={self.alpha!r} is not one of {ALPHAS}; pass alpha=1 or alpha=2")
         self.G = sp.csr_array(self.G)
         self.c = np.asarray(self.c, dtype=np.float64)
+        self.mid = self.c if self.c_mid is None else np.asarray(self.c_mid, dtype=np.float64)
 
     @property
     def n(self):
@@ -137,7 +142,7 @@ class MaternShape:
     def precision(self, kappa):
         """``Q / tau^2``: ``K`` for ``alpha = 1``, ``K C^-1 K`` for ``alpha = 2`` (CSR, sorted)."""
         K = self.K(kappa)
-        Q = K if self.alpha == 1 else sp.csr_array(K @ sp.diags_array(1.0 / self.c) @ K)
+        Q = K if self.alpha == 1 else sp.csr_array(K @ sp.diags_array(1.0 / self.mid) @ K)
         Q = sp.csr_array((Q + Q.T) * 0.5)
         Q.sort_indices()
         return Q
@@ -146,12 +151,15 @@ class MaternShape:
         """``d(Q / tau^2) / d kappa``: ``2 kappa C`` for ``alpha = 1``, ``4 kappa K`` for ``alpha = 2`` (CSR)."""
         if self.alpha == 1:
             return sp.csr_array(sp.diags_array(2.0 * kappa * self.c))
+        if self.c_mid is not None:  # d(K M^-1 K) = dK M^-1 K + K M^-1 dK, dK = 2 kappa C
+            half = sp.csr_array(sp.diags_array(2.0 * kappa * self.c / self.mid) @ self.K(kappa))
+            return sp.csr_array(half + half.T)
         return sp.csr_array(4.0 * kappa * self.K(kappa))
 
     def root(self, kappa):
         """``B`` with ``B' B = Q / tau^2``."""
         if self.alpha == 2:
-            return sp.csr_array(sp.diags_array(1.0 / np.sqrt(self.c)) @ self.K(kappa))
+            return sp.csr_array(sp.diags_array(1.0 / np.sqrt(self.mid)) @ self.K(kappa))
         return sp.csr_array(sp.vstack([sp.csr_array(self.root_G), sp.diags_array(kappa * np.sqrt(self.c))]))
 
     def covariance_at(self, kappa, H, factor):
@@ -162,5 +170,5 @@ class MaternShape:
         """
         Ht = np.asarray(sp.csr_array(H).T.toarray())
         W = factor.solve(Ht)
-        R = (Ht.T @ W) if self.alpha == 1 else (W.T @ (self.c[:, None] * W))
+        R = (Ht.T @ W) if self.alpha == 1 else (W.T @ (self.mid[:, None] * W))
         return (R + R.T) * 0.5

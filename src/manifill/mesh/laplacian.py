@@ -215,7 +215,7 @@ def mass_matrix(V, F, *, mass=None, kind=None):
             raise OptionError(f"mass={mass!r} is for triangles; tetrahedra have the barycentric mass alone (a "
                               f"quarter volume per corner): pass mass='barycentric'")
         return tet_mass_matrix(V, F)
-    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True)
+    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     n = len(V)
     ramp = np.arange(n + 1, dtype=np.int32 if n < 2**31 - 1 else np.int64)
     M = sp.csr_array((vertex_areas(V, F, kind=mass), ramp[:-1], ramp), shape=(n, n))

@@ -32,7 +32,8 @@ def to_pyvista(V, C, point_data=None):
     Parameters
     ----------
     V : (n, 3) numpy array
-    C : (m, 3) or (m, 4) numpy array of int
+    C : (m, 3) or (m, 4) numpy array of int, or None
+        Triangles or tetrahedra; None for a point cloud (its points alone).
     point_data : dict of str to (n,) or (n, p) numpy array, optional
         Masks (booleans) are stored as 0/1 bytes, as in manifill's files.
 
@@ -46,6 +47,11 @@ def to_pyvista(V, C, point_data=None):
     except ImportError:
         raise ImportError("converting to pyvista needs pyvista: pip install 'manifill[viz]'") from None
     V = np.asarray(V, dtype=np.float64)
+    if C is None:  # a point cloud: its points (pyvista gives each a vertex cell)
+        mesh = pv.PolyData(V)
+        for name, arr in _point_arrays(point_data).items():
+            mesh.point_data[name] = arr
+        return mesh
     C = np.asarray(C, dtype=np.int64)
     if _cell_kind(C) == "triangle":
         mesh = pv.PolyData.from_regular_faces(V, C)
@@ -60,5 +66,8 @@ def to_meshio(V, C, point_data=None):
     """A ``meshio.Mesh`` of triangles or tetrahedra with named point data (see :func:`to_pyvista`)."""
     import meshio
 
+    V = np.asarray(V, dtype=np.float64)
+    if C is None:  # a point cloud: one vertex cell per point
+        return meshio.Mesh(V, [("vertex", np.arange(len(V))[:, None])], point_data=_point_arrays(point_data))
     C = np.asarray(C, dtype=np.int64)
-    return meshio.Mesh(np.asarray(V, dtype=np.float64), [(_cell_kind(C), C)], point_data=_point_arrays(point_data))
+    return meshio.Mesh(V, [(_cell_kind(C), C)], point_data=_point_arrays(point_data))

@@ -1,10 +1,11 @@
-"""Meshes built in code: icospheres and flat grids, for examples, tests and benchmarks."""
+"""Meshes built in code: icospheres, latitude-longitude spheres and flat grids, for examples, tests and
+benchmarks."""
 
 import numpy as np
 
 from .edges import adjacency
 
-__all__ = ["icosphere", "grid", "great_circle_vertices"]
+__all__ = ["icosphere", "uv_sphere", "grid", "great_circle_vertices"]
 
 
 def icosphere(k=3, *, radius=1.0):
@@ -100,6 +101,36 @@ def grid(n=10, m=None, *, size=(1.0, 1.0), diagonal="alternate"):
     F1 = np.where(flip[:, None], np.column_stack([a, b, c]), np.column_stack([a, b, d]))
     F2 = np.where(flip[:, None], np.column_stack([b, d, c]), np.column_stack([a, d, c]))
     return V, np.vstack([F1, F2]).astype(np.int64)
+
+
+def uv_sphere(rings=16, segments=32, *, radius=1.0):
+    """A latitude-longitude sphere: ``rings - 1`` circles of latitude, ``segments`` meridians, one vertex per pole.
+
+    Its meridians and parallels are paths of edges (a globe's grid: a barrier along a meridian follows edges).
+    Vertex 0 is the south pole, the last the north pole; ring ``i`` (``1 .. rings - 1``) holds vertices
+    ``1 + (i - 1) segments + j`` at longitude ``2 pi j / segments``; faces point outward.
+
+    Examples
+    --------
+    >>> V, F = uv_sphere(4, 8)
+    >>> len(V), len(F), bool(np.allclose(np.linalg.norm(V, axis=1), 1.0))
+    (26, 48, True)
+    """
+    theta = np.pi * np.arange(1, rings) / rings - np.pi / 2  # latitudes
+    phi = 2 * np.pi * np.arange(segments) / segments
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    ring = np.column_stack([np.cos(t.ravel()) * np.cos(p.ravel()), np.cos(t.ravel()) * np.sin(p.ravel()),
+                            np.sin(t.ravel())])
+    V = np.vstack([[0.0, 0.0, -1.0], ring, [0.0, 0.0, 1.0]]) * radius
+    j = np.arange(segments)
+    k = (j + 1) % segments
+    faces = [np.column_stack([np.zeros(segments, np.int64), 1 + k, 1 + j])]  # the south cap
+    for i in range(rings - 2):
+        a, b = 1 + i * segments, 1 + (i + 1) * segments
+        faces += [np.column_stack([a + j, a + k, b + k]), np.column_stack([a + j, b + k, b + j])]
+    top = 1 + (rings - 2) * segments
+    faces.append(np.column_stack([top + j, top + k, np.full(segments, len(V) - 1)]))
+    return V, np.vstack(faces).astype(np.int64)
 
 
 def great_circle_vertices(V, F, axes=(0, 1, 2)):

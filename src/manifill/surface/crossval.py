@@ -28,7 +28,7 @@ table. For other folds or candidates, call :func:`cross_validate` and pass
 import numpy as np
 
 from ..errors import OptionError, SampleError
-from ..validate import as_indices, as_mesh, as_samples, as_values, check_option
+from ..validate import as_indices, as_mesh, as_points, as_samples, as_values, check_option, is_mesh_object
 from .crossval_result import CrossValidation
 from .engine import reconstruct_surface
 from .folds import MIN_SAMPLES, fold_labels, label_of, run_folds
@@ -36,6 +36,7 @@ from .locate import locate_points
 from .methods.auto import AUTO_CANDIDATES, AUTO_FOLDS
 from .methods.registry import configure, method_of, names
 from .points import is_positions
+from .barriers import Cut
 from .surface import Surface
 from .unreferenced import compact
 
@@ -49,7 +50,7 @@ CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"
 FIT_OPTIONS = ("partition", "weights", "levels", "curve_values", "solver", "iteration", "init", "tol", "maxiter",
                "bounds", "smoothing", "sample_weights")
 #: Options that shape the surface or the samples, not a fit (refused per candidate).
-SURFACE_OPTIONS = ("distance", "duplicates", "max_distance")
+SURFACE_OPTIONS = ("distance", "duplicates", "max_distance", "neighbours", "barriers")
 
 
 def candidates_of(methods, digital=False):
@@ -149,10 +150,15 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
         raise OptionError(f"cross_validate takes no option {bad[0]!r}; pass those of reconstruct "
                           f"({', '.join(FIT_OPTIONS + SURFACE_OPTIONS)})")
     base = configure(method="harmonic", **options)  # every option checked once; each candidate sets its method
+    if base.fill.barriers is not None and (isinstance(V, Surface) or F is None and not is_mesh_object(V)):
+        raise OptionError("barriers cut a mesh along its edges: give the mesh (V, F), not a Surface or a point cloud")
     if isinstance(V, Surface):
         if F is not None:
             raise OptionError("pass F=None with a Surface (it has its own triangles, or none)")
         surface = V
+    elif F is None and not is_mesh_object(V):  # a point cloud
+        surface = Surface.from_points(as_points(V), neighbours=base.fill.neighbours, distance=base.fill.distance,
+                                      check=False)
     else:
         V, F = as_mesh(V, F, allow_degenerate=base.fill.weights in ("uniform", "robust"), allow_unreferenced=True)
         cm = compact(V, F)  # vertices used by no face take no part (the held-out samples are on faces)
@@ -160,11 +166,12 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
             V, F = cm.V, cm.F
             if not is_positions(idx):
                 idx = cm.indices(as_indices(idx, cm.n, what="idx", unique=False))
-        surface = Surface.from_mesh(V, F, distance=base.fill.distance, check=False)
-    cands = candidates_of(methods, digital=surface.F is None)
+        cut = None if base.fill.barriers is None else Cut(V, F, base.fill.barriers)
+        surface = Surface.from_mesh(V, F, distance=base.fill.distance, check=False, cut=cut)
+    cands = candidates_of(methods, digital=surface.mass is None)
     duplicates, max_distance = base.points.duplicates, base.points.max_distance
     if is_positions(idx):
-        if surface.F is None:
+        if surface.F is None and surface.cloud is None:
             raise SampleError("samples as positions need triangles to be located on; pass vertex indices")
         P = np.asarray(idx, dtype=np.float64)
         vals, _ = as_values(vals, len(P))
@@ -180,5 +187,13 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
         if idx.size != raw.size:
             raise SampleError("sample_weights with repeated sample vertices: merge the samples first, one per vertex")
         base = base.replace(sample_weights=np.asarray(base.fit.sample_weights, dtype=np.float64)[np.argsort(raw)])
+    groups = None
+    if surface.cut is not None:  # a sample on a barrier holds on each side: its copies, held out together
+        copies, rows = surface.cut.copies(idx)
+        order = np.argsort(copies, kind="stable")
+        idx, vals, groups = copies[order], vals[rows[order]], rows[order]
+        surface.cut.check_pieces(idx, base.fill.on_empty)
+        if base.fit.sample_weights is not None:
+            base = base.replace(sample_weights=np.asarray(base.fit.sample_weights)[groups])
     return run_folds(surface, idx, vals, cands, folds=folds, seed=seed, options=base, reconstruct=reconstruct_surface,
-                     lookup=method_of)
+                     lookup=method_of, groups=groups)

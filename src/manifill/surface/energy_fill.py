@@ -28,7 +28,6 @@ from ..linalg.backends import AUTO_DIRECT_FIELDS, AUTO_DIRECT_MAX, auto_backend,
 from ..linalg.energies import polyharmonic_energy
 from ..linalg.quadratic import QuadraticSolver
 from ..linalg.smoothing import smooth
-from ..mesh.laplacian import mass_matrix
 from ..mesh.topology import pattern_components
 from ..tolerances import TOL
 from .options import FitOptions
@@ -145,7 +144,7 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     tol, maxiter = settings.pop("tol", None), settings.pop("maxiter", None)
     if settings:
         raise OptionError(f"energy_fill takes no setting {next(iter(settings))!r}; pass tol or maxiter")
-    A = cached(prepared, "energy matrix", lambda: _energy(surface, surface.laplacian(weights), k))
+    A = cached(prepared, "energy matrix", lambda: _energy(surface, weights, k))
     fields = vals.shape[1] if fields is None else fields
     lohi = as_bounds(bounds, vals if Aeq is None else np.vstack([vals, beq]))
     if smoothing is not None:
@@ -197,15 +196,17 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     return (X if X.ndim == 2 else X[:, None]), report
 
 
-def _energy(surface, L, k):
+def _energy(surface, weights, k):
+    L = surface.laplacian(weights)
     if k == 1:
         return L
-    if surface.F is None:
+    if surface.mass is None:
         raise OptionError(f"the {'bi' if k == 2 else 'tri'}harmonic energy needs triangles (a mass matrix); "
                           f"a digital surface has none: use method='harmonic' or a tetrahedral solid")
 
-    # the Voronoi mass, as igl.harmonic(V, F, b, bc, k) uses (manifill.surface.polyharmonic.biharmonic's default)
-    return polyharmonic_energy(L, mass_matrix(surface.V, surface.F, mass="voronoi"), k)
+    # the Voronoi mass, as igl.harmonic(V, F, b, bc, k) uses (manifill.surface.polyharmonic.biharmonic's default);
+    # a point cloud's own (its fans' mixed areas)
+    return polyharmonic_energy(L, surface.mass("voronoi", weights), k)
 
 
 def _smoothed(A, n, idx, vals, smoothing, sample_weights, k, Aeq=None, beq=None):

@@ -72,7 +72,8 @@ def label_of(name, own):
     return " ".join([name] + [f"{k}={v}" for k, v in own.items()])
 
 
-def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstruct, positions=None, lookup=None):
+def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstruct, positions=None, lookup=None,
+              groups=None):
     """Cross-validate validated samples on a Surface.
 
     Parameters
@@ -93,13 +94,15 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
         Samples given as positions ``P`` (``(k, 3)``), located; ``idx`` is then their nearest vertices.
     lookup : callable, optional
         A method by name (the registry's ``method_of``): its ``cv_hint`` goes into the result's hints.
+    groups : (k,) int numpy array, optional
+        Samples that are one (the sides of a sample on a barrier): each group held out together.
 
     Returns
     -------
     CrossValidation
     """
     k, p = vals.shape
-    labels = fold_labels(k, folds, seed)
+    labels = fold_labels(k, folds, seed) if groups is None else fold_labels(int(groups.max()) + 1, folds, seed)[groups]
     nf = int(labels.max()) + 1
     span = vals.max(axis=0) - vals.min(axis=0)
     span = np.where(span > 0, span, 1.0)  # a constant field: absolute errors

@@ -26,8 +26,7 @@ from ..linalg.energies import polyharmonic_energy
 from ..linalg.gp import as_gp_options, gp_condition, intrinsic_std
 from ..linalg.gpdraws import posterior_draws
 from ..linalg.spde import MaternShape
-from ..mesh.laplacian import mass_matrix
-from ..mesh.roots import gradient_root, laplacian_root
+from ..mesh.roots import edge_root, gradient_root, laplacian_root
 from ..mesh.topology import pattern_components
 
 __all__ = ["VARIANCE_OPTIONS", "gp_draws", "reconstruct_gp", "energy_uncertainty", "trust_mask"]
@@ -65,9 +64,10 @@ def gp_draws(result, draws, seed=0):
 
     rep = result.report["gp"]
     V, F = result.V, result.F
-    surface = Surface.from_mesh(V, F)
-    shape = MaternShape(surface.laplacian("cotan"), mass_matrix(V, F, mass="barycentric").diagonal(),
-                        gradient_root(V, F), rep["alpha"], 2)
+    surface = Surface.from_mesh(V, F, check=False) if result.cloud is None else Surface.from_points(
+        V, neighbours=result.cloud.k, check=False)
+    surface.barrier_faces = result.barrier_faces
+    shape = _matern(surface, rep["alpha"], rep.get("barrier_range"))
     points = None
     if result.points is not None:
         located = result.points
@@ -78,8 +78,30 @@ def gp_draws(result, draws, seed=0):
     return posterior_draws(shape, oidx, rows, X, rep, draws, seed)
 
 
-def _lengths(V, F):
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+def _matern(surface, alpha, fraction=None):
+    """The Matérn shape on a mesh (the finite-element gradient as its root) or a point cloud (the edges'); with
+    ``surface.barrier_faces``, Bakka's barrier model (those faces' range ``fraction`` times the field's)."""
+    L = surface.laplacian("cotan")
+    c = surface.mass("barycentric").diagonal()
+    if surface.F is None:
+        return MaternShape(L, c, edge_root(L), alpha, 2)
+    V, F, bf = surface.V, surface.F, surface.barrier_faces
+    root = gradient_root(V, F)
+    if bf is None or fraction is None:
+        return MaternShape(L, c, root, alpha, 2)
+    # the SPDE u - div(r^2/8 grad u) = r W with r = fraction * range on the barrier faces: their stiffness and
+    # their share of the noise's mass scaled by fraction^2 (the outer mass stays the whole lumped mass)
+    w = np.where(bf, fraction ** 2, 1.0)
+    root = sp.csr_array(sp.diags_array(np.repeat(np.sqrt(w), 3)) @ root)
+    G = sp.csr_array(root.T @ root)
+    area = np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1) / 2.0
+    c_mid = np.bincount(F.ravel(), weights=np.repeat(w * area / 3.0, 3), minlength=len(V))
+    return MaternShape(G, c, root, alpha, 2, c_mid=c_mid)
+
+
+def _lengths(surface):
+    V, F = surface.V, surface.F
+    E = surface.cloud.E if F is None else np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
     length = float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))
     diameter = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     return length, diameter
@@ -117,7 +139,7 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
         A digital surface, weights other than cotan, ``solver='iterate'``, bad ``gp`` options.
     """
     opts = as_gp_options(gp)
-    if surface.F is None:
+    if surface.mass is None:
         raise OptionError("method='gp' needs triangles (a mass matrix), and a digital surface has none; use the "
                           "voxel mask's own gp (manifill.solid.gp.gp_voxels) or a triangle mesh")
     if weights != "cotan":
@@ -125,14 +147,17 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
                           f"leave weights out")
     if solver == "iterate":
         raise OptionError("method='gp' solves with 'direct' or 'amg' (or 'auto'), not solver='iterate'")
-    V, F = surface.V, surface.F
-    M = mass_matrix(V, F, mass="barycentric").diagonal()
-    shape = MaternShape(surface.laplacian("cotan"), M, gradient_root(V, F), opts.alpha, 2)
-    length, diameter = _lengths(V, F)
+    V = surface.V
+    bakka = surface.barrier_faces is not None
+    shape = _matern(surface, opts.alpha, opts.barrier_range if bakka else None)
+    length, diameter = _lengths(surface)
     oidx, rows, Y = _observations(points, idx, vals)
     where = V[oidx] if rows is None else np.vstack([V[oidx], sp.csr_array(rows) @ V])
     X, std, report = gp_condition(shape, oidx, rows, Y, opts, length=length, diameter=diameter, solver=solver,
                                   positions=where, with_std=with_std)
+    if bakka:
+        report["barrier"], report["barrier_range"] = "bakka", opts.barrier_range
+        report["barrier_faces"] = int(np.count_nonzero(surface.barrier_faces))
     return X, std, report
 
 
@@ -167,7 +192,7 @@ def energy_uncertainty(surface, k, X, observed, *, weights="cotan", fill_report=
     if k == 1:
         Q, B = L, root
     else:
-        M = mass_matrix(surface.V, surface.F, mass="voronoi").diagonal()
+        M = surface.mass("voronoi", weights).diagonal()
         Q = polyharmonic_energy(L, sp.diags_array(M), k)
         ML = sp.csr_array(sp.diags_array(1.0 / M) @ L)
         B = sp.csr_array(sp.diags_array(1.0 / np.sqrt(M)) @ L) if k == 2 else (

@@ -112,8 +112,9 @@ def locate_points(V, F, points, *, max_distance=None):
     ----------
     V : (n, 3) numpy array
         Vertex positions (validated, e.g. by :func:`manifill.validate.as_mesh`).
-    F : (m, 3) int numpy array
-        Triangles.
+    F : (m, 3) int numpy array or None
+        Triangles; None for a point cloud, whose query points are located at their nearest point
+        (``faces`` -1, ``vertex`` that point).
     points : (k, 3) array_like
         Query points (``(k, 2)`` for a flat mesh: ``z = 0``).
     max_distance : float, optional
@@ -145,8 +146,9 @@ def locate_points(V, F, points, *, max_distance=None):
     ([0.5, 0.25, 0.25], 0.5, [-1, 0])
     """
     V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    if F.ndim != 2 or F.shape[1] != 3 or len(F) == 0:
+    cloud = F is None  # a point cloud (or a digital surface): each point at its nearest vertex
+    F = np.zeros((0, 3), np.int64) if cloud else np.asarray(F, dtype=np.int64)
+    if not cloud and (F.ndim != 2 or F.shape[1] != 3 or len(F) == 0):
         raise SampleError("sample positions are located on triangles, and this mesh has none; give vertex indices")
     P = sample_positions(V, points)
     if V.shape[1] == 2:
@@ -165,6 +167,14 @@ def locate_points(V, F, points, *, max_distance=None):
         dist[out] = np.inf
         refuse_far(dist, min(limit, np.finfo(float).max), diag, "the surface")
     vdist, nearest_vertex = vtree.query(Ps)
+    if cloud:
+        refuse_far(vdist * sc, limit, diag, "the point cloud")
+        k, nv = len(P), nearest_vertex.astype(np.int64)
+        bary = np.zeros((k, 3))
+        bary[:, 0] = 1.0
+        return SurfacePoints(faces=np.full(k, -1, np.int64), corners=np.repeat(nv[:, None], 3, axis=1), bary=bary,
+                             points=V[nv], distance=vdist * sc, nearest_vertex=nv, vertex=nv,
+                             vertex_distance=vdist * sc)
 
     T = Vs[F]  # (m, 3, 3)
     cent = T.mean(axis=1)

@@ -58,8 +58,14 @@ class FillOptions:
     tol: object = None
     maxiter: object = None
     on_empty: str = "error"
+    neighbours: object = None  # a point cloud's nearest neighbours per point (None: mesh.pointcloud.NEIGHBOURS)
+    barriers: object = None  # lines the field must not cross (surface.barriers), checked against the mesh
 
     def validate(self):
+        if self.neighbours is not None and not (isinstance(self.neighbours, (int, np.integer))
+                                                and not isinstance(self.neighbours, bool) and self.neighbours >= 6):
+            raise OptionError(f"neighbours={self.neighbours!r} is not a whole number >= 6 (how many nearest points "
+                              f"each point of a cloud looks at); pass e.g. 16, or leave it out")
         check_option("partition", self.partition, PARTITIONS)
         check_option("weights", self.weights, WEIGHTS)
         check_option("distance", self.distance, DISTANCES)

@@ -77,8 +77,31 @@ class Reconstruction(Result):
     made_by: object = field(default=None, repr=False, compare=False)
     #: for a mesh with vertices used by no face, the renumbering it ran on (:mod:`manifill.surface.unreferenced`)
     compact: object = field(default=None, repr=False, compare=False)
+    #: for a point cloud, its neighbourhoods and operators (:class:`manifill.mesh.pointcloud.Cloud`)
+    cloud: object = field(default=None, repr=False, compare=False)
+    #: with ``barriers``, the cut mesh (:class:`manifill.surface.barriers.Cut`) and the result on its copies
+    cut: object = field(default=None, repr=False, compare=False)
+    on_cut: object = field(default=None, repr=False, compare=False)
+    #: with gp's barrier='bakka', the faces along the barriers (the draws' precision needs them)
+    barrier_faces: object = field(default=None, repr=False, compare=False)
 
     def _gradient(self, X, at):
+        if self.cut is not None:  # each face's own side of the barriers
+            if X is not self.values:
+                raise OptionError("the gradient's std is not available with barriers (the draws are averaged over "
+                                  "a barrier's sides); take r.gradient() alone, or reconstruct without barriers")
+            inner = self.on_cut
+            g = inner._gradient(np.asarray(inner.values), at)
+            if at == "cells":
+                return g
+            g = self.cut.values(g)
+            return g if self.compact is None else self.compact.full(g)
+        if self.cloud is not None:
+            if at == "cells":
+                raise OptionError("a point cloud has no cells; take its gradient at='vertices' (per point, a "
+                                  "least-squares plane through its neighbours)")
+            g = (self.cloud.gradient_operator() @ X.reshape(len(X), -1)).reshape(len(X), 3, -1).transpose(0, 2, 1)
+            return g[:, 0, :] if np.ndim(X) == 1 else g
         if self.F is None:
             raise OptionError("a digital surface (voxels) has no triangles to take a gradient on; reconstruct on a "
                               "triangle mesh, or take the volume's gradient")
@@ -90,7 +113,7 @@ class Reconstruction(Result):
         return vertex_gradients(F, area, g, len(V), normals=vertex_normals(V, F))
 
     def _domain(self):
-        kind = "vertices" if self.F is not None else "surface voxels"
+        kind = "vertices" if self.F is not None else "points" if self.cloud is not None else "surface voxels"
         return f"{len(self.values):,} {kind}, {0 if self.idx is None else len(self.idx):,} samples"
 
     def _draws(self, count, seed):
@@ -98,7 +121,10 @@ class Reconstruction(Result):
             raise OptionError("this result does not know the method that made it (built by hand?); reconstruct "
                               "with method='gp' to draw from its posterior")
         c = self.compact  # vertices used by no face: drawn on the mesh without them, NaN there
-        out = self.made_by.draws(self if c is None else c.shrink(self), count, seed)
+        if self.cut is not None:  # drawn on the mesh cut along the barriers, each split vertex's sides averaged
+            out = self.cut.values(self.made_by.draws(self.on_cut, count, seed))
+        else:
+            out = self.made_by.draws(self if c is None else c.shrink(self), count, seed)
         out = out if c is None else c.full(out)
         return out[:, 0, :] if np.ndim(self.values) == 1 else out
 
@@ -133,13 +159,14 @@ class Reconstruction(Result):
         >>> bool(abs(r.at(V[[10]] * 1.001)[0] - 2.0) < 1e-9)
         True
         """
-        if self.F is None:
+        if self.F is None and self.cloud is None:
             raise OptionError("at() interpolates on triangles; a digital surface has none: index r.values by vertex")
         if return_std and self.std is None:
             raise OptionError("this result has no std; reconstruct with method='gp' or uncertainty=True")
-        loc = locate_points(self.V, self.F, points, max_distance=max_distance)
+        where = self if self.cut is None else self.on_cut  # with barriers: each face's own side
+        loc = locate_points(where.V, where.F, points, max_distance=max_distance)
         out = [np.einsum("mc,mc...->m...", loc.bary, a[loc.corners])
-               for a in ((self.values, self.std) if return_std else (self.values,))]
+               for a in ((where.values, where.std) if return_std else (where.values,))]
         return tuple(out) if return_std else out[0]
 
     def plot(self, field=None, **kwargs):
@@ -207,7 +234,7 @@ class Reconstruction(Result):
 
         mesh = to_pyvista(self.V, self.F, self.point_data(names))
         for kind, ours, count in (("point_data", mesh.point_data, len(self.V)), ("cell_data", mesh.cell_data,
-                                                                                 len(self.F))):
+                                                                                 -1 if self.F is None else len(self.F))):
             theirs = getattr(self.source, kind, None)
             pyvista = type(self.source).__module__.startswith("pyvista")  # meshio's cell data is per block
             if theirs is None or (kind == "cell_data" and (not pyvista or self.source.n_cells != count)):

@@ -24,9 +24,10 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator
 
 from ..errors import OptionError, SampleError
+from ..linalg.gp import as_gp_options
 from ..linalg.quadratic import QuadraticSolver
 from ..memory import check_fits
-from ..validate import as_indices, as_mesh, as_samples, check_option
+from ..validate import as_indices, as_mesh, as_points, as_samples, check_option
 from ..validate.objects import is_mesh_object
 from .energy_fill import as_bounds
 from .engine import reconstruct_surface
@@ -35,6 +36,7 @@ from .methods.registry import configure, method_of
 from .points import is_positions, point_samples
 from .prepared import Prepared
 from .samples import weights_by_vertex
+from .barriers import Cut, barrier_faces
 from .surface import Surface
 from .unreferenced import compact
 
@@ -100,19 +102,34 @@ class Reconstructor:
             raise OptionError(f"fields={fields!r} is not a whole number >= 1 (how many fields you will "
                               f"reconstruct); pass one, or None for many")
         self._source = V if is_mesh_object(V) else None  # its own arrays go back out with the result
-        V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"), allow_unreferenced=True)
-        self._compact = compact(V, F)  # vertices used by no face: left out, NaN in the result
+        if F is None and not is_mesh_object(V):  # a point cloud
+            V, self._compact = as_points(V), None
+        else:
+            V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"), allow_unreferenced=True)
+            self._compact = compact(V, F)  # vertices used by no face: left out, NaN in the result
         n_full = len(V)
         if self._compact is not None:
             V, F = self._compact.V, self._compact.F
+        self._cut, bakka = None, None
+        if o.fill.barriers is not None:  # the mesh cut along them: no method sees across
+            if F is None:
+                raise OptionError("barriers cut a mesh along its edges, and a point cloud has none; give the mesh's "
+                                  "faces, or leave barriers out")
+            if method_of(o.method).gp_mean and as_gp_options(o.uq.gp).barrier == "bakka":
+                bakka = barrier_faces(V, F, o.fill.barriers)  # the mesh whole, the faces along them slow
+            else:
+                self._cut = Cut(V, F, o.fill.barriers)
+                V, F = self._cut.V, self._cut.F
         self.method, self._method = o.method, method_of(o.method)
         self.default = o.preset is not None
-        self._located, self._raw = None, idx
+        self._located, self._raw, self._copies = None, idx, None
         weights = o.fit.sample_weights
         if is_positions(idx):
             self._raw = np.asarray(idx, dtype=np.float64)  # the positions, kept for every apply
             self._located = locate_points(V, F, self._raw, max_distance=o.points.max_distance)
             self.samples = len(self._raw)
+            if self._cut is not None:
+                self._cut.check_pieces(self._located.corners[:, 0], o.fill.on_empty)
         elif o.points.max_distance is not None:
             raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
         else:
@@ -120,12 +137,17 @@ class Reconstructor:
             if self._compact is not None:
                 self._raw = self._compact.indices(self._raw)
             self.samples = self._raw.size
+            if self._cut is not None:  # a sample on a barrier holds on each side: one row per copy
+                self._copies = self._cut.copies(self._raw)
+                self._cut.check_pieces(self._copies[0], o.fill.on_empty)
             if weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
-                weights = weights_by_vertex(self._raw, weights, np.unique(self._raw))
+                at, rows = (self._raw, slice(None)) if self._copies is None else self._copies
+                weights = weights_by_vertex(at, np.asarray(weights)[rows], np.unique(at))
         self.options = o if weights is None else configure(o.replace(sample_weights=weights))  # checked once
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
-        self.surface = Surface.from_mesh(V, F, distance=o.fill.distance, check=False)
+        self.surface = _surface(V, F, o)
+        self.surface.cut, self.surface.barrier_faces = self._cut, bakka
         self.seconds["graph"] = time.perf_counter() - t
         self.fields = math.inf if fields is None else int(fields)
         self.linear, self._why = self._linearity()
@@ -154,6 +176,7 @@ class Reconstructor:
         """
         state = dict(self.__dict__)
         state["surface"] = (self.surface.V, self.surface.F)
+        state["_bakka"] = self.surface.barrier_faces
         state["_prepared"] = {k: v for k, v in self._prepared.items() if not _process_local(v)}
         return state
 
@@ -161,7 +184,8 @@ class Reconstructor:
         """Rebuild the surface; the solvers wait for the first :meth:`apply` (``prepared.cached``)."""
         V, F = state["surface"]
         self.__dict__.update(state)
-        self.surface = Surface.from_mesh(V, F, distance=self.options.fill.distance, check=False)
+        self.surface = _surface(V, F, self.options)
+        self.surface.cut, self.surface.barrier_faces = self._cut, state.get("_bakka")
         self._prepared = Prepared(state["_prepared"])
 
     def _prepare(self, progress):
@@ -192,6 +216,10 @@ class Reconstructor:
                                    max_distance=self.options.points.max_distance,
                                    nearest_only=not self._method.at_points, located=self._located)
             return points.nearest, points.nearest_vals, points, points.squeeze, given
+        if self._copies is not None:
+            copies, rows = self._copies
+            idx, v, _ = as_samples(copies, given[rows], self.surface.n, duplicates=duplicates)
+            return idx, v, None, arr.ndim == 1, given
         idx, v, squeeze = as_samples(self._raw, arr, self.surface.n, duplicates=duplicates)
         return idx, v, None, squeeze, given
 
@@ -212,6 +240,8 @@ class Reconstructor:
         if squeeze:
             r.values = r.values[:, 0]
             r.std = None if r.std is None else r.std[:, 0]
+        if self._cut is not None:
+            r = self._cut.expand(r)
         return r if self._compact is None else self._compact.expand(r)
 
     def apply(self, vals, *, progress=None):
@@ -275,7 +305,7 @@ class Reconstructor:
             raise OptionError(f"this reconstruction is not linear in the sample values ({self._why}), so it has no "
                               f"matrix; use apply(vals), or a linear configuration (e.g. method='gvf-harmonic' with "
                               f"curve_values='hermite', or method='harmonic', without bounds)")
-        n, k = self.surface.n if self._compact is None else self._compact.n, self.samples
+        n, k = (self._compact or self._cut or self.surface).n, self.samples
         options = self._plain()
         if form == "auto":
             form = "sparse" if self._method.sparse_map else "operator"
@@ -295,6 +325,14 @@ class Reconstructor:
         W = sp.csr_array(sp.hstack(blocks, format="csr"))
         W.eliminate_zeros()
         return W
+
+
+def _surface(V, F, options):
+    """The validated arrays as a Surface: a mesh, or a point cloud when ``F`` is None."""
+    if F is None:
+        return Surface.from_points(V, neighbours=options.fill.neighbours, distance=options.fill.distance,
+                                   check=False)
+    return Surface.from_mesh(V, F, distance=options.fill.distance, check=False)
 
 
 def _process_local(piece):

@@ -5,7 +5,9 @@ the steps it composes (:mod:`manifill.surface.gradual`, :mod:`manifill.surface.p
 :mod:`manifill.surface.curve_values`, :mod:`manifill.surface.fill`) need of a surface.
 A triangle mesh gives all of it from ``(V, F)`` (:meth:`Surface.from_mesh`); a digital
 surface (the boundary voxels of a solid, :func:`manifill.solid.boundary.digital_surface_graph`) gives
-graphs from voxel adjacency, normals from the solid, and has no triangles (``F`` is None).
+graphs from voxel adjacency, normals from the solid, and has no triangles (``F`` is None). A point cloud
+(:meth:`Surface.from_points`) has no triangles either, but a Laplacian and a mass from each point's local
+Delaunay fan (:class:`manifill.mesh.pointcloud.Cloud`), so that every method runs on it.
 """
 
 from dataclasses import dataclass
@@ -13,9 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mesh.graph import DISTANCES, mesh_graph
-from ..mesh.laplacian import assemble_laplacian
+from ..mesh.laplacian import assemble_laplacian, mass_matrix
 from ..mesh.edges import EdgeIndex
-from ..validate import as_mesh, check_option
+from ..mesh.pointcloud import NEIGHBOURS, Cloud
+from ..validate import as_mesh, as_points, check_option
 
 __all__ = ["Surface"]
 
@@ -59,6 +62,18 @@ class Surface:
     index : EdgeIndex or None
         The edge index of ``F`` (:class:`manifill.mesh.edges.EdgeIndex`),
         shared by both graphs and the Laplacians.
+    mass : callable or None
+        ``mass(kind, weights)`` gives the (n, n) diagonal lumped mass (``kind`` one of
+        :func:`manifill.mesh.laplacian.mass_matrix`'s on a mesh; a point cloud has one mass, or the
+        robust Laplacian's own for ``weights='robust'``); None on a digital surface (the methods that
+        need a mass refuse it).
+    cloud : Cloud or None
+        A point cloud's neighbourhoods and operators (:class:`manifill.mesh.pointcloud.Cloud`).
+    cut : Cut or None
+        For a mesh cut along barriers, the cut (:class:`manifill.surface.barriers.Cut`): ``piece`` labels the
+        pieces it parts the surface into (what a method working in space needs).
+    barrier_faces : (m,) bool numpy array or None
+        The faces along barriers, for ``method='gp'`` with ``gp={'barrier': 'bakka'}`` (the mesh is not cut).
 
     See Also
     --------
@@ -80,6 +95,10 @@ class Surface:
     F: np.ndarray = None
     normals: np.ndarray = None
     index: object = None
+    mass: object = None
+    cloud: object = None
+    cut: object = None
+    barrier_faces: object = None
 
     def __post_init__(self):
         if not isinstance(self.laplacian, _CachedLaplacian):
@@ -91,7 +110,7 @@ class Surface:
         return len(self.V)
 
     @classmethod
-    def from_mesh(cls, V, F, *, distance="length", allow_degenerate=False, check=True):
+    def from_mesh(cls, V, F, *, distance="length", allow_degenerate=False, check=True, cut=None):
         """A triangle mesh as a Surface: validated, with its edge index, both graphs and Laplacians.
 
         Parameters
@@ -108,6 +127,8 @@ class Surface:
         check : bool, optional
             Validate ``(V, F)`` with :func:`manifill.validate.as_mesh`; pass
             False only for arrays it has already returned.
+        cut : Cut, optional
+            The mesh cut along barriers (:class:`manifill.surface.barriers.Cut`): the surface is its copies.
 
         Returns
         -------
@@ -128,10 +149,51 @@ class Surface:
         (True, (9, 9))
         """
         check_option("distance", distance, DISTANCES)
-        if check:
+        if cut is not None:
+            V, F = cut.V, cut.F
+        elif check:
             V, F = as_mesh(V, F, allow_degenerate=allow_degenerate)
         n = len(V)
         index = EdgeIndex(F, n)
         G_hops = mesh_graph(V, F, distance="hops", index=index)
         G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
-        return cls(V, G_hops, G, lambda w: assemble_laplacian(V, F, w, index), F=F, index=index)
+        return cls(V, G_hops, G, lambda w: assemble_laplacian(V, F, w, index), F=F, index=index,
+                   mass=lambda kind, weights=None: mass_matrix(V, F, mass=kind), cut=cut)
+
+    @classmethod
+    def from_points(cls, P, *, neighbours=None, distance="length", check=True):
+        """A point cloud as a Surface: graphs, Laplacians, mass and normals from its points alone.
+
+        Parameters
+        ----------
+        P : (n, 3) array_like
+            The points.
+        neighbours : int, optional
+            Nearest neighbours per point (:data:`manifill.mesh.pointcloud.NEIGHBOURS` by default).
+        distance : {'length', 'hops'}, optional
+            The edge lengths of ``G``.
+        check : bool, optional
+            Validate ``P`` with :func:`manifill.validate.as_points`.
+
+        Returns
+        -------
+        Surface
+            ``F`` None, ``cloud`` the :class:`~manifill.mesh.pointcloud.Cloud`; the graphs join each point
+            to its local Delaunay neighbours; ``laplacian('uniform')`` is that graph's, every other weight
+            name the fans' cotangent Laplacian (``'robust'``: Sharp & Crane's, from robust-laplacian).
+
+        Examples
+        --------
+        >>> from manifill.mesh.shapes import icosphere
+        >>> s = Surface.from_points(icosphere(2)[0])
+        >>> s.n, s.F is None, s.cloud.components, s.mass("voronoi").shape
+        (162, True, 1, (162, 162))
+        """
+        check_option("distance", distance, DISTANCES)
+        if check:
+            P = as_points(P)
+        cloud = Cloud(P, NEIGHBOURS if neighbours is None else int(neighbours))
+        G_hops = cloud.graph("hops")
+        G = G_hops if distance == "hops" else cloud.graph("length")
+        return cls(P, G_hops, G, cloud.laplacian, normals=cloud.normals,
+                   mass=lambda kind, weights=None: cloud.mass(weights), cloud=cloud)

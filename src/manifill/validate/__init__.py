@@ -23,7 +23,7 @@ libraries). It is one package of modules by concept, all re-exported here:
 
 from .degenerate import double_areas, duplicate_vertex_pairs, zero_area_faces
 from .grids import as_mask, as_origin, as_spacing, as_voxels
-from .meshes import as_cells, as_laplacian, as_mesh, as_tets, as_vertices
+from .meshes import as_cells, as_laplacian, as_mesh, as_points, as_tets, as_vertices
 from .objects import is_mesh_object, mesh_arrays, tet_arrays
 from .options import check_option, first_entries, integral_floats
 from .samples import as_indices, as_samples, as_values, check_magnitude
@@ -31,6 +31,7 @@ from .scale import UNIT_WINDOW, bbox_diagonal, scale_and_diagonal, scale_of, uni
 
 __all__ = [
     "as_mesh",
+    "as_points",
     "as_tets",
     "as_vertices",
     "as_cells",

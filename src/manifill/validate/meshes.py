@@ -15,7 +15,7 @@ from .objects import mesh_arrays, tet_arrays
 from .options import first_entries, integral_floats
 from .scale import scale_and_diagonal
 
-__all__ = ["as_vertices", "as_cells", "as_mesh", "as_tets", "as_laplacian"]
+__all__ = ["as_vertices", "as_cells", "as_mesh", "as_points", "as_tets", "as_laplacian"]
 
 
 def as_vertices(V):
@@ -180,6 +180,40 @@ def as_mesh(V, F, *, allow_degenerate=False, allow_unreferenced=False, allow_unw
                 f"and falls apart into pieces; merge them with manifill.clean_mesh (CLI: --clean)"
             )
     return V, F
+
+
+def as_points(P):
+    """Validate a point cloud (a surface given by its points, no faces): ``(n, 3)`` finite floats, distinct.
+
+    Parameters
+    ----------
+    P : (n, 3) or (n, 2) array_like
+        Positions (a flat ``(n, 2)`` cloud gets ``z = 0``).
+
+    Returns
+    -------
+    (n, 3) float64 numpy array
+
+    Raises
+    ------
+    MeshError
+        As :func:`as_vertices`; fewer than 7 points; points that coincide (named, with the fix).
+
+    Examples
+    --------
+    >>> as_points(np.arange(21.0).reshape(7, 3) ** 2).shape
+    (7, 3)
+    """
+    P = as_vertices(P)
+    if len(P) < 7:
+        raise MeshError(f"the point cloud has {len(P)} points; a surface needs at least 7 (each point is joined to "
+                        f"its nearest neighbours); pass more points, or faces")
+    dup = duplicate_vertex_pairs(P)
+    if len(dup):
+        i, j = dup[0]
+        raise MeshError(f"{len(dup)} pairs of points coincide (first: {i} and {j}); a point cloud needs distinct "
+                        f"points: merge them (e.g. numpy.unique(P, axis=0)) before reconstructing")
+    return P
 
 
 def as_tets(V, T, *, allow_degenerate=False, allow_unreferenced=False):

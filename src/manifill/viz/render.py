@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import OptionError, WriteError
 from ..mesh.objects import mesh_arrays
+from ..validate import as_vertices, is_mesh_object
 from ..results import TRUSTED
 from .layout import fill_frame, position_text, tick_labels
 from .viewer import MASK_STYLES, choose_field, field_kind, field_range, named_fields
@@ -165,9 +166,24 @@ def _bar_text(pl, actors, clim, labels, title, names=None):
     name.GetTextProperty().SetJustificationToCentered()
 
 
+def _arrays(V, F):
+    """``(V, F)`` of a mesh (arrays or an object), or ``(V, None)`` of a point cloud's array."""
+    return (as_vertices(V), None) if F is None and not is_mesh_object(V) else mesh_arrays(V, F)
+
+
 def _polydata(pv, V, F):
+    if F is None:  # a point cloud
+        return pv.PolyData(np.asarray(V, dtype=np.float64))
     faces = np.column_stack([np.full(len(F), 3), np.asarray(F, dtype=np.int64)]).ravel()
     return pv.PolyData(np.asarray(V, dtype=np.float64), faces)
+
+
+def _look_of(V, F):
+    """How a panel's mesh is drawn: shaded triangles, or a point cloud's points as spheres sized to their density
+    (14 px for 2,500 points, 4 px for 40,000)."""
+    if F is None:
+        return {"point_size": float(np.clip(800.0 / np.sqrt(len(V)), 2.0, 14.0)), "render_points_as_spheres": True}
+    return {"smooth_shading": True}
 
 
 def _add_surface(pl, pv, panel, clim, cmap):
@@ -183,7 +199,7 @@ def _add_surface(pl, pv, panel, clim, cmap):
         if kind not in ("mask", "category"):  # round ticks: the colour range widened to a whole number of round steps
             clim, labels = nice_range(values if clim is None else np.asarray(clim, dtype=np.float64))
         before = set(pl.scalar_bars.keys())
-        pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, smooth_shading=True, nan_color="lightgrey",
+        pl.add_mesh(mesh, scalars=name, cmap=cmap, clim=clim, nan_color="lightgrey", **_look_of(V, F),
                     scalar_bar_args={"title": name, "vertical": False, "n_labels": labels, "fmt": "%.4g",
                                      "position_x": 0.2, "position_y": 0.04, "width": 0.6, "height": 0.08, **bar},
                     **extra)
@@ -195,7 +211,7 @@ def _add_surface(pl, pv, panel, clim, cmap):
                 names = ["curves" if c < 0 else f"{name} {c}" for c in cats]
             _bar_text(pl, [pl.scalar_bars[key] for key in new], clim, labels, panel.get("bar_title", name), names)
     else:
-        pl.add_mesh(mesh, color="lightgrey", smooth_shading=True)
+        pl.add_mesh(mesh, color="lightgrey", **_look_of(V, F))
     curves = panel.get("curves")
     if curves:
         pts, lines = [], []
@@ -219,7 +235,8 @@ def _add_surface(pl, pv, panel, clim, cmap):
                 pl.add_mesh(poly, color="black", line_width=2)
     samples = panel.get("samples")
     if samples is not None and len(samples):
-        pl.add_points(np.asarray(V)[np.asarray(samples)], color="red", point_size=9, render_points_as_spheres=True)
+        size = max(9.0, 1.6 * _look_of(V, F).get("point_size", 0.0))  # above a point cloud's own points
+        pl.add_points(np.asarray(V)[np.asarray(samples)], color="red", point_size=size, render_points_as_spheres=True)
     if panel.get("title"):
         pl.add_text(panel["title"], font_size=11, position="upper_edge")
 
@@ -336,7 +353,7 @@ def render(V, F, values, path, *, samples=None, curves=None, name="value", names
         Without pyvista.
     """
     look = _look(look, look_options, "render()")
-    V, F = mesh_arrays(V, F)
+    V, F = _arrays(V, F)
     fields = named_fields(values, len(V), names=names, name=name)
     chosen = choose_field(fields, field)
     x = None if chosen is None else fields[chosen]
@@ -385,7 +402,7 @@ def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, l
     >>> render_fields(V, F, r.point_data(), os.path.join(tempfile.mkdtemp(), "std.png"))  # doctest: +SKIP
     """
     look = _look(look, look_options, "render_fields()")
-    V, F = mesh_arrays(V, F)
+    V, F = _arrays(V, F)
     fields = named_fields(fields, len(V))
     if show is None:
         first = choose_field(fields, None)

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import OptionError, ReadError, WriteError
 from ..io.files import atomic_path
 from ..results import BOUNDARY_MASK, CURVE_MASK, SAMPLE_MASK, TRUSTED
-from ..validate import as_mesh
+from ..validate import as_mesh, as_vertices
 
 __all__ = ["write_html", "embedded_arrays", "named_fields", "choose_field", "field_kind", "field_range",
            "MASK_STYLES", "STD_SUFFIX"]
@@ -222,7 +222,10 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
     >>> list(arrays["fields"]), arrays["field"], bool(np.allclose(arrays["values"], V[:, 0]))
     (['z', 'x'], 'x', True)
     """
-    V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
+    if F is None:  # a point cloud: drawn as points
+        V, F = as_vertices(V), np.zeros((0, 3), dtype=np.int64)
+    else:
+        V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     n = len(V)
     fields = named_fields(values, n, names=names, name=name) or {str(name): np.full(n, np.nan)}
     chosen = list(fields).index(choose_field(fields, field))

@@ -54,7 +54,7 @@ class Auto(Method):
         with run.step("cross-validate", "cross_validate"):
             # on a digital surface only those without a mass matrix; with bounds only those that hold them
             usable = [(name, own) for name, own in AUTO_CANDIDATES
-                      if not (surface.F is None and run.lookup(name).needs_triangles)
+                      if not (surface.mass is None and run.lookup(name).needs_triangles)
                       and (o.fit.bounds is None or run.lookup(name).can_bound)]
             cands = {label_of(name, own): (name, own) for name, own in usable}
             cv = run_folds(surface, idx, vals, cands, folds=AUTO_FOLDS if k >= AUTO_FOLDS else "loo",

@@ -226,10 +226,12 @@ class Run:
             report["points"] = points_report(points, method.exact_at(self))
         self.seconds["total"] = self.before + time.perf_counter() - self.t0
         s = self.surface
+        if s.cloud is not None:
+            report["cloud"] = s.cloud.report()
         return Reconstruction(values=values, curves=self.curves, components=self.components, on_curve=self.on_curve,
                               levels=[c.levels for c in self.checks], report=report, V=s.V, F=s.F, idx=self.idx,
                               points=None if points is None else points.located, std=std, trusted=trusted,
-                              made_by=method)
+                              made_by=method, cloud=s.cloud, barrier_faces=s.barrier_faces)
 
 
 

@@ -48,7 +48,7 @@ class Matern(Method):
         return values, std
 
     def draws(self, result, count, seed):
-        if result.F is None:
+        if result.F is None and result.cloud is None:
             raise OptionError("drawing from a gp needs the triangle mesh it ran on")
         return gp_draws(result, count, seed)
 

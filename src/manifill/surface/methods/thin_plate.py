@@ -47,6 +47,14 @@ class ThinPlate(Method):
     def fill(self, run):
         run.step1(self)
         points, w = run.points, run.options.fit.sample_weights
+        cut = run.surface.cut
+        if cut is not None:  # in space it sees through barriers: one spline per piece they part the surface into
+            if not cut.parted:
+                raise OptionError("method='rbf' works in space and follows barriers only where they part the surface "
+                                  "into pieces, and these leave it in one piece; use an energy method or gp (e.g. "
+                                  "method='biharmonic'), which follow the surface round the barriers' ends")
+            with run.step("rbf"):
+                return _by_piece(run, cut.piece, w), None
         with run.step("rbf"):
             X, Y = run.surface.V[run.idx], run.vals
             if _constrained(points):
@@ -58,6 +66,20 @@ class ThinPlate(Method):
             values, run.report["rbf"] = thin_plate(run.surface.V, X, Y, smoothing=run.options.fit.smoothing,
                                                    sample_weights=w)
         return values, None
+
+
+def _by_piece(run, piece, w):
+    """The spline of each piece through its own samples (the nearest vertices), NaN on a piece with none."""
+    V, idx, vals = run.surface.V, run.idx, run.vals
+    out = np.full((len(V), vals.shape[1]), np.nan)
+    reports = []
+    for q in np.unique(piece[idx]):
+        rows, mine = np.flatnonzero(piece == q), piece[idx] == q
+        out[rows], rep = thin_plate(V[rows], V[idx[mine]], vals[mine], smoothing=run.options.fit.smoothing,
+                                    sample_weights=None if w is None else np.asarray(w)[mine])
+        reports.append(rep)
+    run.report["rbf"] = {**reports[0], "pieces": len(reports)}
+    return out
 
 
 RBF = ThinPlate()

@@ -3,6 +3,9 @@
 ``python -m bench.barriers [--n 61] [--level 5] [--k 150]``: two cases, each method run without and with
 ``barriers=`` in one process:
 
+Rows: every method, and ``gp-bakka`` (the gp with ``gp={'barrier': 'bakka'}``: the mesh whole, the faces along
+the barrier at a tenth of the range).
+
 - *plane*: the unit square (an n x n grid), ``f = y + [x > 1/2]`` (a step of 1 across the wall x = 1/2, which
   spans the square), the wall's vertices as one barrier path;
 - *sphere*: a latitude-longitude sphere (``uv_sphere(12 level, 24 level)``: a globe's grid, whose meridians are
@@ -26,7 +29,9 @@ from manifill.mesh.shapes import grid, uv_sphere
 from manifill.surface.engine import reconstruct_surface
 from manifill.surface.surface import Surface
 
-METHODS = ("default", "gvf-harmonic", "gvf", "harmonic", "biharmonic", "triharmonic", "gp", "rbf")
+METHODS = ("default", "gvf-harmonic", "gvf", "harmonic", "biharmonic", "triharmonic", "gp", "gp-bakka", "rbf")
+#: a row's method and options (gp-bakka: the gp with Bakka's barrier model instead of the cut)
+RUNS = {"default": (None, {}), "gp-bakka": ("gp", {"gp": {"barrier": "bakka"}})}
 
 
 def plane(n):
@@ -71,7 +76,8 @@ def run_case(name, V, F, f, barriers, off, k, methods):
         row = []
         for b in (None, barriers):
             t = time.perf_counter()
-            r = manifill.reconstruct(V, F, idx, f[idx], method=None if m == "default" else m, barriers=b)
+            method, kw = RUNS.get(m, (m, {}))
+            r = manifill.reconstruct(V, F, idx, f[idx], method=method, barriers=b, **kw)
             row.append((error(r.values, f, off), time.perf_counter() - t))
         (e0, t0), (e1, t1) = row
         print(f"{m:<14} {e0:>9.4f} {e1:>9.4f} {e1 / e0:>7.3f} {t0:>10.2f} {t1:>8.2f}")
@@ -84,8 +90,8 @@ def slit(n, k, methods):
     idx = np.sort(rng.choice(np.flatnonzero(off), k, replace=False))
     print(f"\nslit: {len(V):,} vertices, the slit's {len(barriers[0])} vertices; barrier vs the mesh cut by hand")
     for m in methods:
-        if m == "rbf":
-            continue  # the slit leaves one piece: rbf refuses the barrier (it works in space)
+        if m in ("rbf", "gp-bakka"):
+            continue  # the slit leaves one piece: rbf refuses the barrier (it works in space); bakka does not cut
         a = manifill.reconstruct(V, F, idx, f[idx], method=None if m == "default" else m, barriers=barriers)
         # the hand-cut mesh is unwelded (its copies coincide), which reconstruct refuses: the engine takes it
         b = reconstruct_surface(Surface.from_mesh(V2, F2, check=False), idx, f[idx][:, None],

@@ -7,6 +7,7 @@ Laplacian, mass and graph included). Prints the RMS error over all vertices rela
 ratio cloud / mesh, and the seconds. ``--random`` also runs a cloud of uniformly random points on the sphere
 (no mesh of the same points to compare with; its error beside the mesh's of the same size), and
 ``--robust`` the robust-laplacian package's point-cloud Laplacian (``weights='robust'``) beside manifill's.
+``--timing --levels 7``: the biharmonic alone, mesh and cloud alternated four times (the target's ratio).
 """
 
 import argparse
@@ -74,6 +75,21 @@ def run(level, k, methods, repeats, robust, random):
     return rows
 
 
+def timing(level, k, repeats, method="biharmonic"):
+    """The target's figure: ``method`` on the mesh and on the cloud, alternated ``repeats`` times, minimum each."""
+    V, F = icosphere(level)
+    idx = np.sort(np.random.default_rng(7).choice(len(V), k, replace=False))
+    mesh, cloud = [], []
+    for _ in range(repeats):
+        mesh.append(timed(V, F, idx, method)[1])
+        cloud.append(timed(V, None, idx, method)[1])
+        print(f"{method} at {len(V):,}: mesh {mesh[-1]:.2f} s, cloud {cloud[-1]:.2f} s, {cloud[-1] / mesh[-1]:.2f}x",
+              flush=True)
+    ratios = np.array(cloud) / np.array(mesh)
+    print(f"minimum: mesh {min(mesh):.2f} s, cloud {min(cloud):.2f} s, {min(cloud) / min(mesh):.2f}x; median ratio "
+          f"{np.median(ratios):.2f}")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--levels", default="5,7")
@@ -82,7 +98,12 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--robust", action="store_true")
     p.add_argument("--random", action="store_true")
+    p.add_argument("--timing", action="store_true", help="only the biharmonic's time, mesh and cloud alternated")
     a = p.parse_args(argv)
+    if a.timing:
+        for level in (int(x) for x in a.levels.split(",")):
+            timing(level, a.k, max(a.repeats, 4))
+        return
     for level in (int(x) for x in a.levels.split(",")):
         run(level, a.k, a.methods.split(","), a.repeats, a.robust, a.random)
 

@@ -208,24 +208,37 @@ def _frames(Pu, nbr):
 
 
 def _oriented(Pu, normals, nbr):
-    """Normals flipped to agree along a breadth-first walk of the neighbour graph, each piece's walk starting
-    at its point farthest from the piece's centre, whose normal is turned away from it (outward when closed)."""
+    """Normals flipped to agree along a breadth-first tree of the neighbour graph, each piece's tree rooted at its
+    point farthest from the piece's centre, whose normal is turned away from it (outward when closed)."""
     n, k = nbr.shape
     G = sp.csr_array((np.ones(n * k), (np.repeat(np.arange(n), k), nbr.ravel())), shape=(n, n))
     G = sp.csr_array(G + G.T)
-    _, label = connected_components(G, directed=False)
+    count, label = connected_components(G, directed=False)
+    centre = np.zeros((count, 3))
+    np.add.at(centre, label, Pu)
+    centre /= np.bincount(label, minlength=count)[:, None]
+    out = Pu - centre[label]
+    far = np.einsum("ij,ij->i", out, out)
+    roots = np.full(count, -1, dtype=np.int64)
+    order = np.lexsort((far, label))
+    roots[label[order]] = order  # the last of each piece in the order: its farthest point
+    parent = np.arange(n)
     sign = np.ones(n)
-    for c in range(label.max() + 1):
-        members = np.flatnonzero(label == c)
-        out = Pu[members] - Pu[members].mean(axis=0)
-        root = members[np.argmax(np.einsum("ij,ij->i", out, out))]
-        order, pred = breadth_first_order(G, root, directed=False)
-        sign[root] = 1.0 if normals[root] @ (Pu[root] - Pu[members].mean(axis=0)) >= 0 else -1.0
-        agree = np.sign(np.einsum("ij,ij->i", normals[order[1:]], normals[pred[order[1:]]]) + TOL.tiny)
-        parent = pred[order[1:]]
-        for i, p, a in zip(order[1:].tolist(), parent.tolist(), agree.tolist()):
-            sign[i] = sign[p] * a  # parents come first in breadth-first order
-    return normals * sign[:, None]
+    for r in roots:
+        members, pred = breadth_first_order(G, r, directed=False)
+        parent[members[1:]] = pred[members[1:]]
+        sign[r] = 1.0 if normals[r] @ out[r] >= 0 else -1.0
+    # each point's sign: the product of the agreements up its tree (pointer jumping: log2(depth) rounds, with
+    # S[i] = acc[i] S[up[i]] for the points not done and S[i] = acc[i] for those done)
+    acc = np.sign(np.einsum("ij,ij->i", normals, normals[parent]) + TOL.tiny)
+    acc[roots] = sign[roots]
+    up, done = parent.copy(), parent == np.arange(n)
+    while not done.all():
+        todo = np.flatnonzero(~done)
+        j = up[todo]
+        acc[todo], done[todo], up[todo] = acc[todo] * acc[j], done[j], up[j]
+    agree = acc
+    return normals * agree[:, None]
 
 
 def _umbrellas(Pu, nbr, frame):

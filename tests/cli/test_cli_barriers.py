@@ -45,9 +45,36 @@ def test_every_barrier_file_gives_the_library_s_values(tmp_path, capsys, case, n
 
 
 def test_cv_takes_barriers(capsys, case):
-    code, text, err = run(capsys, "cv", case / "m.ply", case / "s.csv", "--methods", "harmonic,biharmonic",
-                          "--folds", "4", "--barriers", case / "wall.txt")
-    assert code == 0, err and "biharmonic" in text
+    args = ("cv", case / "m.ply", case / "s.csv", "--methods", "harmonic,biharmonic", "--folds", "4")
+    code, text, err = run(capsys, *args, "--barriers", case / "wall.txt")
+    assert code == 0, err
+    cv = manifill.cross_validate(V, F, IDX, step(V[IDX]), methods=["harmonic", "biharmonic"], folds=4,
+                                 barriers=[WALL])
+    assert f"{100 * cv.errors['biharmonic']:.3g}%" in text
+    code, plain, err = run(capsys, *args)
+    assert code == 0 and plain.split("rank")[1] != text.split("rank")[1]
+
+
+def test_clean_renumbers_the_barriers_and_stl_refuses_them_by_index(tmp_path, capsys, case):
+    """--clean merges an unwelded copy of vertex 0 (put first in the file): the barrier file's indices, in the
+    file's numbering, are renumbered with the samples; an STL keeps no vertex numbers, so index barriers are
+    refused (positions are not)."""
+    V2, F2 = np.vstack([V[:1], V]), F + 1
+    f0 = np.flatnonzero((F == 0).any(axis=1))[0]
+    F2[f0] = np.where(F[f0] == 0, 0, F[f0] + 1)
+    write_mesh(tmp_path / "u.vtp", V2, F2)
+    (tmp_path / "s.csv").write_text("vertex,u\n" + "".join(f"{i + 1},{v!r}\n" for i, v in zip(IDX, step(V[IDX]).tolist())))
+    (tmp_path / "w.txt").write_text(" ".join(str(w + 1) for w in WALL) + "\n")
+    out = tmp_path / "o.vtu"
+    code, _, err = run(capsys, "reconstruct", tmp_path / "u.vtp", tmp_path / "s.csv", "-o", out, "--method",
+                       "biharmonic", "--barriers", tmp_path / "w.txt", "--clean")
+    assert code == 0, err
+    ref = manifill.reconstruct(V, F, IDX, step(V[IDX]), method="biharmonic", barriers=[WALL]).values
+    assert np.abs(meshio.read(out).point_data["u"] - ref).max() < 1e-12
+    write_mesh(tmp_path / "m.stl", V, F)
+    code, o, err = run(capsys, "reconstruct", tmp_path / "m.stl", case / "wall.csv", "-o", out,
+                       "--barriers", case / "wall.txt")
+    assert "give the barriers as positions" in assert_usage_error(code, o, err)
 
 
 @pytest.mark.parametrize("content, name, word", [

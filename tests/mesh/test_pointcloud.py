@@ -142,3 +142,14 @@ def test_a_boundary_point_s_open_fan_ends_at_its_extreme_neighbours():
     assert set(np.flatnonzero(row).tolist()) == {0, 1, 6}
     assert row[1] == pytest.approx(-0.5) and row[6] == pytest.approx(-0.5)
     assert c.M[0] == pytest.approx(0.2 ** 2 / 4)
+
+
+def test_points_in_no_fan_are_joined_and_have_mass():
+    """A wire leaving a flat scan (points on a line have no fan): each joined to its two nearest neighbours, the
+    median mass, so the cloud stays one piece and every method runs."""
+    P = jittered_grid(12, 0.0)
+    tail = np.column_stack([1 + 0.09 * np.arange(1, 31), np.full(30, 0.5), np.zeros(30)])
+    c = Cloud(np.vstack([P, tail]))
+    assert np.all(c.M > 0) and c.components == 1
+    wire = np.arange(len(P), len(P) + 30)
+    assert np.all(c.L.diagonal()[wire] > 0) and np.abs(c.L @ np.ones(len(c.M))).max() < 1e-12

@@ -191,4 +191,74 @@ def test_bakka_s_barrier_model():
     h = 1e-6
     dQ = (shape.precision(3.0 + h) - shape.precision(3.0 - h)).toarray() / (2 * h)
     assert np.allclose(shape.dprecision(3.0).toarray(), dQ, rtol=1e-6, atol=1e-6 * np.abs(dQ).max())
-    assert not np.allclose(shape.c_mid, shape.c)  # the barrier faces' noise mass scaled
+    # independently: the barrier faces are those with a vertex on the wall, their share of the noise's mass
+    # scaled by the fraction squared
+    bf = np.isclose(V[F][:, :, 0], 0.5).any(axis=1)
+    assert np.array_equal(s.barrier_faces, bf)
+    area = np.abs(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])[:, 2]) / 2
+    want = np.zeros(len(V))
+    np.add.at(want, F.ravel(), np.repeat(np.where(bf, 0.01, 1.0) * area / 3, 3))
+    assert np.allclose(shape.c_mid, want, rtol=1e-12)
+
+
+def test_barrier_paths_are_in_the_caller_s_numbering_with_stray_vertices():
+    """A vertex no face uses first: the wall's indices shift by one, and the result is the same."""
+    path = WALL[np.argsort(V[WALL, 1])]
+    V1, F1 = np.vstack([[5.0, 5.0, 0.0], V]), F + 1
+    a = reconstruct(V, F, IDX, step(V[IDX]), method="harmonic", barriers=[path])
+    b = reconstruct(V1, F1, IDX + 1, step(V[IDX]), method="harmonic", barriers=[path + 1])
+    assert np.abs(a.values - b.values[1:]).max() < 1e-12 and np.isnan(b.values[0])
+    g = [reconstruct(M, T, i, step(V[IDX]), method="gp", barriers=[p], gp={"range": 0.5, "sigma": 1.0,
+                                                                          "barrier": "bakka"}).values
+         for M, T, i, p in ((V, F, IDX, path), (V1, F1, IDX + 1, path + 1))]
+    assert np.abs(g[0] - g[1][1:]).max() < 1e-10
+    cv = [cross_validate(M, T, i, step(V[IDX]), methods=["harmonic"], folds=4, barriers=[p]).errors["harmonic"]
+          for M, T, i, p in ((V, F, IDX, path), (V1, F1, IDX + 1, path + 1))]
+    assert cv[0] == pytest.approx(cv[1], rel=1e-12)
+    with pytest.raises(OptionError, match="no face uses"):
+        reconstruct(V1, F1, IDX + 1, step(V[IDX]), barriers=[np.r_[0, path + 1]])
+
+
+def test_a_time_series_with_barriers(tmp_path):
+    from manifill.io.stream import reconstruct_series
+
+    path = [WALL[np.argsort(V[WALL, 1])]]
+    vals = np.column_stack([step(V[IDX]) * k for k in (1.0, 2.0, 3.0)])
+    s = reconstruct_series(V, F, IDX, vals, tmp_path / "s.npy", method="harmonic", barriers=path)
+    X = np.load(tmp_path / "s.npy")
+    r = reconstruct(V, F, IDX, vals[:, 2], method="harmonic", barriers=path)
+    assert X.shape == (len(V), 3) and np.allclose(X[:, 2], r.values) and s is not None
+
+
+def test_a_position_sample_at_a_barrier_vertex_holds_on_both_sides():
+    path = [WALL[np.argsort(V[WALL, 1])]]
+    v = WALL[10]
+    idx = np.r_[IDX, v]
+    vals = np.r_[step(V[IDX]), 5.0]
+    for method in ("harmonic", "biharmonic"):
+        by_index = reconstruct(V, F, idx, vals, method=method, barriers=path)
+        by_position = reconstruct(V, F, np.vstack([V[IDX], V[[v]]]), vals, method=method, barriers=path)
+        sides = by_position.on_cut.values[by_position.cut.copies([v])[0]]
+        assert np.allclose(sides, 5.0) and by_position.values[v] == pytest.approx(5.0)
+        assert np.abs(by_index.values - by_position.values).max() < 1e-9
+
+
+def test_errors_name_the_caller_s_rows_and_vertices():
+    path = [WALL[np.argsort(V[WALL, 1])]]
+    idx = np.r_[IDX[:4], WALL[5], IDX[4:6], WALL[5]]
+    vals = np.r_[step(V[IDX[:4]]), 1.0, step(V[IDX[4:6]]), 2.0]
+    with pytest.raises(SampleError, match=r"1 vertices get two different values \(vertex \d+: rows 4, 7"):
+        reconstruct(V, F, idx, vals, barriers=path)
+    with pytest.raises(SampleError, match="outside 0..440"):
+        cross_validate(V, F, np.r_[IDX, 450], np.r_[step(V[IDX]), 1.0], methods=["harmonic"], barriers=path)
+    with pytest.raises(OptionError, match="barrier='bakka'.*give barriers="):
+        reconstruct(V, F, IDX, step(V[IDX]), method="gp", gp={"barrier": "bakka"})
+
+
+def test_a_split_vertex_beside_a_piece_left_nan_keeps_its_other_side():
+    path = [WALL[np.argsort(V[WALL, 1])]]
+    left = IDX[V[IDX, 0] < 0.5]
+    r = reconstruct(V, F, left, step(V[left]), barriers=path, on_empty="nan", method="harmonic")
+    assert np.isfinite(r.values[WALL]).all()
+    assert np.allclose(r.values[WALL], r.on_cut.values[r.cut.copies(WALL)[0]][np.isfinite(
+        r.on_cut.values[r.cut.copies(WALL)[0]])])

@@ -9,26 +9,27 @@ here: masks come from the results (:meth:`manifill.results.Result.masks`), value
 from :func:`manifill.report.value_ranges`.
 """
 
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from ..errors import OptionError, SampleError, WriteError
-from ..io import MESH_FORMATS, SAMPLE_FORMATS, read_barriers, VALUE_FORMATS, check_field_names, format_note, read_mesh_file, read_samples, write_mesh
+from ..io import (MESH_FORMATS, SAMPLE_FORMATS, VALUE_FORMATS, check_field_names, format_note, read_barriers,
+                  read_mesh_file, read_samples, write_mesh)
 from ..mesh.clean import clean_mesh
 from .. import progress
 from ..report import uncertainty_lines, value_ranges
 from ..results import TRUSTED
+from ..surface.barriers import renumber
 from ..surface.samples import Samples
 from ..viz.render import render_fields
 from ..viz.viewer import write_html
+from .outputs import check_outputs
 from ..surface.methods.registry import METHODS, method_of
 
 __all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
            "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
            "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws", "add_draws",
-           "VECTOR_OUTPUTS", "gradient_names", "barriers_arg"]
+           "VECTOR_OUTPUTS", "gradient_names", "barriers_arg", "check_barrier_numbering"]
 
 
 def barriers_arg(args):
@@ -45,22 +46,33 @@ def check_order(mesh, samples):
                           f"a mesh: did you swap them? the order is MESH SAMPLES")
 
 
-def load(args, keep_points=False, points=False):
+def check_barrier_numbering(mesh, barriers):
+    """Refuse barriers given by vertex index on a mesh file that does not keep its vertex numbers (STL)."""
+    if mesh.vertex_numbering and isinstance(barriers, list) and any(getattr(p, "ndim", 0) == 1 for p in barriers):
+        raise OptionError(f"{mesh.vertex_numbering}; give the barriers as positions (a .csv of x,y,z) or per-face "
+                          f"labels (.npy) instead of vertex indices")
+
+
+def load(args, keep_points=False, points=False, options=None):
     """Read mesh and samples (checked against the mesh's vertex numbering), optionally cleaning the mesh first.
 
     ``keep_points``: samples given as positions keep them (``S.points``), for the
     energy methods, which locate them on the surface. ``points``: take a point cloud too
-    (a file of points without faces: ``F`` None).
+    (a file of points without faces: ``F`` None). ``options``: the run's Options, whose barriers
+    (``--barriers``, vertex paths in the file's numbering) are checked against it and renumbered by ``--clean``.
 
     Returns
     -------
     V, F : numpy arrays (F None for a point cloud)
     S : manifill.surface.samples.Samples
+    options : the Options, barriers in the mesh's numbering (with ``options`` only)
     """
 
     check_order(args.mesh, args.samples)
     mesh = read_mesh_file(args.mesh, points=points)
     V, F = mesh.V, mesh.F
+    barriers = None if options is None else options.fill.barriers
+    check_barrier_numbering(mesh, barriers)
     if F is None:
         if args.clean:
             raise OptionError(f"{Path(args.mesh).name} is a point cloud (no faces), and --clean welds meshes; leave "
@@ -71,9 +83,11 @@ def load(args, keep_points=False, points=False):
                 keep_points=keep_points)
     S = read_samples(args.samples, V, **read)
     if args.clean:
-        n0 = len(V)
+        n0, m0 = len(V), len(F)
         V, F, vmap = clean_mesh(V, F)
         print(f"cleaned mesh: {n0:,} -> {len(V):,} vertices, {len(F):,} faces")
+        if barriers is not None:
+            options = options.replace(barriers=renumber(barriers, vmap, faces_kept=len(F) == m0))
         if S.snap_distance is None:
             new = vmap[S.idx]
             if (new < 0).any():
@@ -83,74 +97,7 @@ def load(args, keep_points=False, points=False):
             S = Samples.from_indices(new, S.vals, len(V), names=S.names, duplicates=args.duplicates)
         else:
             S = read_samples(args.samples, V, **read)
-    return V, F, S
-
-
-def _same(a, b):
-    try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
-def _writable(folder):
-    """Whether a file can be created in ``folder`` (tried, since permissions alone do not tell)."""
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".manifill-probe-", dir=folder)
-    except OSError:
-        return False
-    os.close(fd)
-    os.unlink(probe)
-    return True
-
-
-def check_outputs(outputs, inputs):
-    """Check every output of a command before any work.
-
-    Parameters
-    ----------
-    outputs : list of (str, str or None, tuple of str)
-        ``(option, path, allowed extensions)``; a None path is skipped.
-    inputs : list of str
-        Input paths no output may overwrite.
-
-    Returns
-    -------
-    list of Path
-        The outputs (None where not given), in order.
-
-    Raises
-    ------
-    WriteError
-        A wrong extension, a missing or read-only folder, an output equal to an
-        input or to another output.
-    """
-    seen, result = [], []
-    ins = [Path(p).resolve() for p in inputs if p]
-    for option, path, allowed in outputs:
-        if path is None:
-            result.append(None)
-            continue
-        out = Path(path)
-        if out.suffix.lower() not in allowed:
-            raise WriteError(f"{out.name}: {option} writes {', '.join(allowed)}; change the name")
-        if not out.parent.is_dir():
-            raise WriteError(f"folder {out.parent} does not exist; create it first or choose another path for "
-                             f"{option}")
-        if out.is_dir():
-            raise WriteError(f"{out} is a folder; give {option} a file name")
-        resolved = out.resolve()
-        for src in ins:
-            if resolved == src or _same(out, src):
-                raise WriteError(f"{option} {out.name} is also an input; write to another file")
-        for other, opt in seen:
-            if resolved == other:
-                raise WriteError(f"{option} and {opt} both write {out.name}; give them different names")
-        if not _writable(out.parent):
-            raise WriteError(f"folder {out.parent} is not writable; choose another path for {option}")
-        seen.append((resolved, option))
-        result.append(out)
-    return result
+    return (V, F, S) if options is None else (V, F, S, options)
 
 
 def write_surface(out, V, F, point_data):

@@ -3,6 +3,7 @@
 import time
 
 from ..errors import OptionError
+from ..surface.options import Options
 from .common import barriers_arg, bounds_arg, chosen_field, levels, load, smoothing_arg
 from .options import DISTANCES, SOLVERS, WEIGHTS, cloud_args, sample_args
 
@@ -98,7 +99,7 @@ def run(args):
     from ..surface.crossval import cross_validate
 
     methods, folds = parse_methods(args.methods), parse_folds(args.folds)
-    V, F, S = load(args, keep_points=True, points=True)
+    V, F, S, read = load(args, keep_points=True, points=True, options=Options.build(barriers=barriers_arg(args)))
     # positions stay positions: the energy methods and rbf constrain them where they are, as reconstruct does
     where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
                                                                          max_distance=args.max_snap)
@@ -109,7 +110,7 @@ def run(args):
     t0 = time.perf_counter()
     cv = cross_validate(V, F, **where, methods=methods, folds=folds, seed=args.seed, weights=args.weights,
                         solver=args.solver, distance=args.distance, duplicates=args.duplicates,
-                        neighbours=args.neighbours, barriers=barriers_arg(args))
+                        neighbours=args.neighbours, barriers=read.fill.barriers)
     seconds = time.perf_counter() - t0
     print(f"{len(V):,} vertices, {cv.samples:,} samples ({len(names)} field(s): {', '.join(names)})")
     if S.points is not None:

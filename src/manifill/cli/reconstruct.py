@@ -78,7 +78,7 @@ def run(args):
             raise OptionError(f"--{flag} runs the chunks of a time series (-o OUT.xdmf, .pvd, .h5 or .npy) on Dask "
                               f"workers; {out.name} is one result: leave --{flag} out, or batch many meshes with "
                               f"'manifill batch'")
-    V, F, S = load(args, keep_points=exact, points=True)
+    V, F, S, options = load(args, keep_points=exact, points=True, options=options)
     check_names(args, S, out)
     if F is None and args.subdivide:
         raise OptionError("--subdivide refines triangles, and a point cloud has none; leave it out")

@@ -20,7 +20,7 @@ from ..io.distributed import dask_client
 from ..io.series import TIME_COLUMNS, read_series
 from ..io.stream import chunk_size, reconstruct_series
 from ..progress import StepBar
-from .common import check_order, print_time
+from .common import check_barrier_numbering, check_order, print_time
 from .options import check_workers
 
 __all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
@@ -60,6 +60,7 @@ def run_series(args, out, options, exact):
     check_order(args.mesh, args.samples)
     mesh = read_mesh_file(args.mesh, points=True)
     V, F = mesh.V, mesh.F
+    check_barrier_numbering(mesh, options["options"].fill.barriers)
     series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
                          vertex_numbering=mesh.vertex_numbering, keep_points=exact)
     S, T = series.samples, series.steps

@@ -170,7 +170,7 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     if times.shape != (T,):
         raise SampleError(f"{times.size} times for {T} time steps (columns of vals); pass one time per column")
     rec = Reconstructor(V, F, idx, fields=T, options=o)
-    n = rec.surface.n
+    n = rec.n
     step = chunk_size(n, T, chunk)
     starts = range(0, T, step)
     seconds = {"prepare": time.perf_counter() - t0, "reconstruct": 0.0, "write": 0.0}
@@ -210,9 +210,9 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
             if W is None and client is not None and progress is not None:  # as each chunk comes back
                 progress(span(s))
             if writer is None:  # the masks do not change in time: given with the first chunk
-                s_ = rec.surface  # a point cloud's points are vertex cells
-                cells = np.arange(s_.n)[:, None] if s_.F is None and s_.cloud is not None else s_.F
-                writer = SeriesWriter(path, s_.V, cells, names=name, steps=T,
+                mV, mF = rec.mesh()  # a point cloud's points are vertex cells
+                cells = np.arange(len(mV))[:, None] if mF is None else mF
+                writer = SeriesWriter(path, mV, cells, names=name, steps=T,
                                       static=None if str(path).lower().endswith(".npy") else static)
             writer.write(values, times[s:s + step])
             seconds["write"] += time.perf_counter() - t
@@ -241,7 +241,7 @@ def apply_chunk(rec, block, first):
     """
     t = time.perf_counter()
     r = rec.apply(block)
-    n = rec.surface.n
+    n = rec.n
     static = None
     if first:
         static = {SAMPLE_MASK: sample_mask(n, r.idx)}
@@ -267,7 +267,7 @@ def dense_map(rec, steps, check=None, seconds=None):
     >>> dense_map(rec, 8).shape, dense_map(rec, 7) is None
     ((162, 4), True)
     """
-    n, k = rec.surface.n, rec.samples
+    n, k = rec.n, rec.samples
     if not rec.linear or check is True or steps < MAP_STEPS_PER_SAMPLE * k or 8.0 * n * k > MAP_BYTES:
         return None
     t = time.perf_counter()

@@ -104,16 +104,13 @@ class Cloud:
         frame[:, 1] = np.cross(frame[:, 2], frame[:, 0])
         self.frame = frame
         fan_a, fan_b = _umbrellas(Pu, self.nbr, frame)
-        self.L, M = _cotan(Pu, self.nbr, fan_a, fan_b, self.n)
+        L, M = _cotan(Pu, self.nbr, fan_a, fan_b, self.n)
+        self.L, M = _join_lone(L, M, self.nbr)
         self.M = M * self.scale ** 2
         U = sp.triu(self.L, k=1).tocoo()
         keep = U.data != 0.0
         E = np.column_stack([U.row[keep], U.col[keep]]).astype(np.int64)
-        # points in no fan (a fan needs two neighbours in a half-plane): joined to their nearest neighbour
-        lone = np.setdiff1d(np.arange(self.n), E.ravel())
-        if lone.size:
-            extra = np.sort(np.column_stack([lone, self.nbr[lone, 0]]), axis=1)
-            E = np.unique(np.vstack([E, extra]), axis=0)
+        # (points in no fan are in L through _join_lone: the graph has their edges too)
         self.E = E
         self.components = int(connected_components(self.graph("hops"), directed=False)[0])
 
@@ -288,6 +285,23 @@ def _umbrellas(Pu, nbr, frame):
     tri = keep & ~(open_[:, None] & (cols[None, :] == (k - 1 - np.argmax(keep[:, ::-1], axis=1))[:, None]))
     # a closed fan's triangles span less than half a turn each (the widest gap is at most pi)
     return np.where(tri, a, -1), np.where(tri, b, -1)
+
+
+def _join_lone(L, M, nbr):
+    """Points in no fan (on a line: a wire leaving a scan) joined to their two nearest neighbours by unit weights,
+    with the median point's mass, so that no point is cut off or massless."""
+    lone = np.flatnonzero(M <= 0)
+    if lone.size == 0:
+        return L, M
+    n = len(M)
+    A = sp.coo_array((np.ones(2 * lone.size), (np.repeat(lone, 2), nbr[lone, :2].ravel())), shape=(n, n)).tocsr()
+    A = sp.csr_array((A + A.T) > 0).astype(np.float64)
+    L = sp.csr_array(L - A + sp.diags_array(np.asarray(A.sum(axis=1)).ravel()))
+    L.sum_duplicates()
+    L.sort_indices()
+    M = M.copy()
+    M[lone] = np.median(M[M > 0]) if np.any(M > 0) else 1.0
+    return L, M
 
 
 def _prev_next(keep):

@@ -28,7 +28,7 @@ from ..mesh.edges import EdgeIndex
 from ..mesh.graph import mesh_graph
 from ..validate.options import first_entries
 
-__all__ = ["Cut", "barrier_edges", "barrier_faces"]
+__all__ = ["Cut", "barrier_edges", "barrier_faces", "renumber"]
 
 
 def barrier_edges(V, F, barriers, index=None):
@@ -58,6 +58,40 @@ def barrier_edges(V, F, barriers, index=None):
         raise OptionError("the barriers run along no edge of the mesh (labels all equal, or paths of one vertex); "
                           "give paths of at least two vertices or faces of two labels")
     return edges
+
+
+def renumber(barriers, new, faces_kept=True):
+    """``barriers`` with its vertex paths renumbered by ``new`` (old vertex -> new, -1 where it went), for a mesh
+    whose vertices were left out or merged; positions as they are; per-face labels only if the faces are kept.
+
+    Raises
+    ------
+    OptionError
+        A path through a vertex that went (or outside the mesh), labels of a mesh whose faces changed.
+    """
+    new = np.asarray(new, dtype=np.int64)
+    if isinstance(barriers, np.ndarray) and barriers.ndim == 1:
+        if not faces_kept:
+            raise OptionError("barriers as per-face labels, and cleaning the mesh changed its faces; give the "
+                              "barriers as paths (vertex indices or positions) instead")
+        return barriers
+    if not isinstance(barriers, (list, tuple)):
+        return barriers
+    out = []
+    for j, path in enumerate(barriers):
+        P = np.asarray(path)
+        if P.ndim == 1 and P.dtype.kind in "iu":
+            bad = P[(P < 0) | (P >= len(new))]
+            if bad.size:
+                raise OptionError(f"barrier {j} holds vertex {int(bad[0])}, outside 0..{len(new) - 1}; give vertex "
+                                  f"indices of this mesh")
+            gone = P[new[P] < 0]
+            if gone.size:
+                raise OptionError(f"barrier {j} passes vertex {int(gone[0])}, which no face uses (it was left out); "
+                                  f"give paths along the surface's edges")
+            P = new[P]
+        out.append(P)
+    return out
 
 
 def barrier_faces(V, F, barriers):
@@ -168,17 +202,43 @@ class Cut:
                               f"({first_entries(sizes)} vertices); add samples there, or pass on_empty='nan' to "
                               f"leave them NaN")
 
+    def both_sides(self, points):
+        """Samples given as positions that sit at a split vertex: held on every side, as index samples are (a
+        point inside a face, or on a barrier's edge between vertices, stays on its face's side)."""
+        out = copy.copy(points)
+        a = points.idx.size
+        idx, vals = self._spread(points.idx, points.vals)
+        pos = np.searchsorted(idx, points.idx)
+        c = points.constraint
+        out.idx, out.vals = idx, vals
+        out.constraint = np.where(c < a, pos[np.minimum(c, max(a - 1, 0))] if a else c, c - a + idx.size)
+        out.nearest, out.nearest_vals = self._spread(points.nearest, points.nearest_vals)
+        return out
+
+    def _spread(self, idx, vals):
+        """Vertex samples ``idx`` (sorted copies) with the other copies of their vertices added (sorted)."""
+        if idx.size == 0:
+            return idx, vals
+        extra, rows = self.copies(self.orig[idx])
+        keep = ~np.isin(extra, idx)
+        extra, first = np.unique(extra[keep], return_index=True)
+        all_idx = np.concatenate([idx, extra])
+        all_vals = np.vstack([vals, vals[rows[keep][first]]])
+        order = np.argsort(all_idx, kind="stable")
+        return all_idx[order], all_vals[order]
+
     def values(self, X, reduce="mean"):
         """Rows on the copies -> rows on the caller's vertices (the mean of a split vertex's sides, or their max)."""
         X = np.asarray(X)
         flat = X.reshape(len(X), -1)
         if reduce == "max":
-            out = np.full((self.n, flat.shape[1]), -np.inf)
-            np.maximum.at(out, self.orig, flat)
-        else:
-            out = (self.C @ np.where(np.isnan(flat), 0.0, flat)) / self.count[:, None]
-            nan = (self.C @ np.isnan(flat).astype(float)) > 0
-            out[nan] = np.nan
+            out = np.full((self.n, flat.shape[1]), np.nan)
+            np.fmax.at(out, self.orig, flat)
+        else:  # the sides that have a value (a side in a piece left NaN does not blank the other)
+            have = (self.C @ (~np.isnan(flat)).astype(float))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                out = (self.C @ np.where(np.isnan(flat), 0.0, flat)) / have
+            out[have == 0] = np.nan
         return out.reshape((self.n,) + X.shape[1:])
 
     def expand(self, r):

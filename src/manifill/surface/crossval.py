@@ -36,7 +36,7 @@ from .locate import locate_points
 from .methods.auto import AUTO_CANDIDATES, AUTO_FOLDS
 from .methods.registry import configure, method_of, names
 from .points import is_positions
-from .barriers import Cut
+from .barriers import Cut, renumber
 from .surface import Surface
 from .unreferenced import compact
 
@@ -166,7 +166,10 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
             V, F = cm.V, cm.F
             if not is_positions(idx):
                 idx = cm.indices(as_indices(idx, cm.n, what="idx", unique=False))
-        cut = None if base.fill.barriers is None else Cut(V, F, base.fill.barriers)
+        barriers = base.fill.barriers
+        if barriers is not None and cm is not None:  # paths in the caller's numbering
+            barriers = renumber(barriers, cm.new)
+        cut = None if barriers is None else Cut(V, F, barriers)
         surface = Surface.from_mesh(V, F, distance=base.fill.distance, check=False, cut=cut)
     cands = candidates_of(methods, digital=surface.mass is None)
     duplicates, max_distance = base.points.duplicates, base.points.max_distance
@@ -182,7 +185,7 @@ def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options
     if max_distance is not None:
         raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
     raw = np.asarray(idx)
-    idx, vals, _ = as_samples(idx, vals, surface.n, duplicates=duplicates)
+    idx, vals, _ = as_samples(idx, vals, surface.n if surface.cut is None else surface.cut.n, duplicates=duplicates)
     if base.fit.sample_weights is not None:
         if idx.size != raw.size:
             raise SampleError("sample_weights with repeated sample vertices: merge the samples first, one per vertex")

@@ -36,7 +36,7 @@ from .methods.registry import configure, method_of
 from .points import is_positions, point_samples
 from .prepared import Prepared
 from .samples import weights_by_vertex
-from .barriers import Cut, barrier_faces
+from .barriers import Cut, barrier_faces, renumber
 from .surface import Surface
 from .unreferenced import compact
 
@@ -111,14 +111,20 @@ class Reconstructor:
         if self._compact is not None:
             V, F = self._compact.V, self._compact.F
         self._cut, bakka = None, None
-        if o.fill.barriers is not None:  # the mesh cut along them: no method sees across
+        barriers = o.fill.barriers
+        if barriers is not None and self._compact is not None:  # paths in the caller's numbering
+            barriers = renumber(barriers, self._compact.new)
+        if as_gp_options(o.uq.gp).barrier == "bakka" and (barriers is None or not method_of(o.method).gp_mean):
+            raise OptionError("gp barrier='bakka' is the gp's model of barriers=: give barriers= and method='gp', or "
+                              "leave it out")
+        if barriers is not None:  # the mesh cut along them: no method sees across
             if F is None:
                 raise OptionError("barriers cut a mesh along its edges, and a point cloud has none; give the mesh's "
                                   "faces, or leave barriers out")
             if method_of(o.method).gp_mean and as_gp_options(o.uq.gp).barrier == "bakka":
-                bakka = barrier_faces(V, F, o.fill.barriers)  # the mesh whole, the faces along them slow
+                bakka = barrier_faces(V, F, barriers)  # the mesh whole, the faces along them slow
             else:
-                self._cut = Cut(V, F, o.fill.barriers)
+                self._cut = Cut(V, F, barriers)
                 V, F = self._cut.V, self._cut.F
         self.method, self._method = o.method, method_of(o.method)
         self.default = o.preset is not None
@@ -137,12 +143,14 @@ class Reconstructor:
             if self._compact is not None:
                 self._raw = self._compact.indices(self._raw)
             self.samples = self._raw.size
-            if self._cut is not None:  # a sample on a barrier holds on each side: one row per copy
-                self._copies = self._cut.copies(self._raw)
-                self._cut.check_pieces(self._copies[0], o.fill.on_empty)
+            if self._cut is not None:  # a sample on a barrier holds on each side: a row per copy, sorted
+                copies, rows = self._cut.copies(np.unique(self._raw))
+                order = np.argsort(copies, kind="stable")
+                self._copies = copies[order], rows[order]
+                self._cut.check_pieces(copies, o.fill.on_empty)
             if weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
-                at, rows = (self._raw, slice(None)) if self._copies is None else self._copies
-                weights = weights_by_vertex(at, np.asarray(weights)[rows], np.unique(at))
+                weights = weights_by_vertex(self._raw, weights, np.unique(self._raw))
+                weights = weights if self._copies is None else weights[self._copies[1]]
         self.options = o if weights is None else configure(o.replace(sample_weights=weights))  # checked once
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
@@ -154,6 +162,16 @@ class Reconstructor:
         self._prepared = Prepared()
         if prepare:
             self._prepare(progress)
+
+    @property
+    def n(self):
+        """Rows of the results: the caller's vertices (before any left out, and before a barrier's cut)."""
+        return (self._compact or self._cut or self.surface).n
+
+    def mesh(self):
+        """``(V, F)`` in the caller's numbering (``F`` None for a point cloud): what the results are on."""
+        whole = self._compact or self._cut
+        return (self.surface.V, self.surface.F) if whole is None else (whole.V_full, whole.F_full)
 
     def _linearity(self):
         """``(linear, why not)`` for this configuration (the module docstring's list)."""
@@ -215,12 +233,14 @@ class Reconstructor:
             points = point_samples(V, F, self._raw, arr, duplicates=duplicates,
                                    max_distance=self.options.points.max_distance,
                                    nearest_only=not self._method.at_points, located=self._located)
+            if self._cut is not None:
+                points = self._cut.both_sides(points)
             return points.nearest, points.nearest_vals, points, points.squeeze, given
-        if self._copies is not None:
+        idx, v, squeeze = as_samples(self._raw, arr, self.n if self._compact is None else self._compact.keep.size,
+                                     duplicates=duplicates)
+        if self._copies is not None:  # checked in the caller's rows, then held on every side of a barrier
             copies, rows = self._copies
-            idx, v, _ = as_samples(copies, given[rows], self.surface.n, duplicates=duplicates)
-            return idx, v, None, arr.ndim == 1, given
-        idx, v, squeeze = as_samples(self._raw, arr, self.surface.n, duplicates=duplicates)
+            return copies, v[rows], None, squeeze, given
         return idx, v, None, squeeze, given
 
     def _run(self, vals, options, duplicates, progress=None):
@@ -305,7 +325,7 @@ class Reconstructor:
             raise OptionError(f"this reconstruction is not linear in the sample values ({self._why}), so it has no "
                               f"matrix; use apply(vals), or a linear configuration (e.g. method='gvf-harmonic' with "
                               f"curve_values='hermite', or method='harmonic', without bounds)")
-        n, k = (self._compact or self._cut or self.surface).n, self.samples
+        n, k = self.n, self.samples
         options = self._plain()
         if form == "auto":
             form = "sparse" if self._method.sparse_map else "operator"

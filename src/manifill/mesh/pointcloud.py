@@ -98,21 +98,21 @@ class Cloud:
             raise MeshError(f"the point cloud has {same.size} points at the same position as another (point "
                             f"{first_entries(same)}); merge duplicate points before reconstructing")
         self.spacing = float(np.median(dist[:, 0])) * self.scale
-        frame = _frames(Pu, self.nbr)
-        self.normals = _oriented(Pu, frame[:, 2], self.nbr)
-        frame[:, 2] = self.normals
-        frame[:, 1] = np.cross(frame[:, 2], frame[:, 0])
-        self.frame = frame
+        frame = _frames(Pu, self.nbr)  # the fans need a tangent plane, not its orientation
         fan_a, fan_b = _umbrellas(Pu, self.nbr, frame)
         L, M = _cotan(Pu, self.nbr, fan_a, fan_b, self.n)
         self.L, M = _join_lone(L, M, self.nbr)
         self.M = M * self.scale ** 2
         U = sp.triu(self.L, k=1).tocoo()
         keep = U.data != 0.0
-        E = np.column_stack([U.row[keep], U.col[keep]]).astype(np.int64)
-        # (points in no fan are in L through _join_lone: the graph has their edges too)
-        self.E = E
-        self.components = int(connected_components(self.graph("hops"), directed=False)[0])
+        self.E = np.column_stack([U.row[keep], U.col[keep]]).astype(np.int64)  # points in no fan included
+        G = self.graph("hops")
+        count, label = connected_components(G, directed=False)
+        self.components = int(count)
+        self.normals = _oriented(Pu, frame[:, 2], G, label)
+        frame[:, 2] = self.normals
+        frame[:, 1] = np.cross(frame[:, 2], frame[:, 0])
+        self.frame = frame
 
     def graph(self, distance="length"):
         """The (n, n) symmetric graph on :attr:`E`: unit lengths (``'hops'``) or lengths over their mean."""
@@ -197,28 +197,26 @@ class Cloud:
 
 
 def _frames(Pu, nbr):
-    """``(n, 3, 3)`` rows ``e1, e2, normal`` from the covariance of each point and its neighbours."""
-    X = np.concatenate([Pu[:, None, :], Pu[nbr]], axis=1)
+    """``(n, 3, 3)`` rows ``e1, e2, normal`` from the covariance of each point and its 10 nearest neighbours."""
+    X = np.concatenate([Pu[:, None, :], Pu[nbr[:, :10]]], axis=1)
     X = X - X.mean(axis=1, keepdims=True)
     _, vecs = np.linalg.eigh(np.einsum("nki,nkj->nij", X, X))  # ascending: the smallest is the normal
     return np.ascontiguousarray(np.stack([vecs[:, :, 2], vecs[:, :, 1], vecs[:, :, 0]], axis=1))
 
 
-def _oriented(Pu, normals, nbr):
-    """Normals flipped to agree along a breadth-first tree of the neighbour graph, each piece's tree rooted at its
-    point farthest from the piece's centre, whose normal is turned away from it (outward when closed)."""
-    n, k = nbr.shape
-    G = sp.csr_array((np.ones(n * k), (np.repeat(np.arange(n), k), nbr.ravel())), shape=(n, n))
-    G = sp.csr_array(G + G.T)
-    count, label = connected_components(G, directed=False)
+def _oriented(Pu, normals, G, label):
+    """Normals flipped to agree along a breadth-first tree of the graph ``G`` (pieces ``label``), each piece's
+    tree rooted at its point farthest from the piece's centre, whose normal is turned away from it (outward when
+    closed)."""
+    n = len(Pu)
+    count = int(label.max()) + 1
     centre = np.zeros((count, 3))
     np.add.at(centre, label, Pu)
     centre /= np.bincount(label, minlength=count)[:, None]
     out = Pu - centre[label]
     far = np.einsum("ij,ij->i", out, out)
-    roots = np.full(count, -1, dtype=np.int64)
-    order = np.lexsort((far, label))
-    roots[label[order]] = order  # the last of each piece in the order: its farthest point
+    order = np.lexsort((far, label))  # by piece, then distance from the centre
+    roots = order[np.r_[np.flatnonzero(np.diff(label[order])), n - 1]]  # each piece's last: its farthest point
     parent = np.arange(n)
     sign = np.ones(n)
     for r in roots:
@@ -247,7 +245,9 @@ def _umbrellas(Pu, nbr, frame):
     y = np.einsum("nkc,nc->nk", d, frame[:, 1])
     theta = np.arctan2(y, x)
     ray = np.round(theta / RAY)  # directions equal to round-off: one ray
-    order = np.lexsort((x ** 2 + y ** 2, ray), axis=-1)  # by angle; on one ray, nearest first
+    r2 = x ** 2 + y ** 2
+    # by angle; on one ray, nearest first (a fraction below 1/2 breaks the ties of whole rays: one sort)
+    order = np.argsort(ray + 0.25 * r2 / r2.max(axis=1, keepdims=True), axis=1, kind="stable")
     theta = np.take_along_axis(theta, order, 1)
     # a point behind a nearer one on the same ray is inside every circle through both and the point itself
     shadowed = np.zeros((n, k), dtype=bool)
@@ -256,7 +256,7 @@ def _umbrellas(Pu, nbr, frame):
     start = (np.argmax(gap, axis=1) + 1) % k  # the widest gap last: an open fan (a boundary point) ends there
     open_ = gap.max(axis=1) > np.pi
     order = np.take_along_axis(order, (start[:, None] + np.arange(k)) % k, 1)
-    r2 = np.maximum(x ** 2 + y ** 2, TOL.tiny)
+    r2 = np.maximum(r2, TOL.tiny)
     px = np.take_along_axis(x / r2, order, 1)  # inverted about the point: Delaunay neighbours <-> hull vertices
     py = np.take_along_axis(y / r2, order, 1)
     keep = ~np.take_along_axis(shadowed, (np.arange(k)[None, :] + start[:, None]) % k, 1)
@@ -309,6 +309,14 @@ def _prev_next(keep):
     with none kept)."""
     n, k = keep.shape
     cols = np.arange(k)
+    full = keep.all(axis=1)
+    if full.any():  # rows with every slot kept (most, in the first round): the neighbours in the cycle
+        prev = np.broadcast_to((cols - 1) % k, (n, k)).copy()
+        nxt = np.broadcast_to((cols + 1) % k, (n, k)).copy()
+        if not full.all():
+            rest = np.flatnonzero(~full)
+            prev[rest], nxt[rest] = _prev_next(keep[rest])
+        return prev, nxt
     prev = np.full((n, k), -1, dtype=np.int64)
     nxt = np.full((n, k), -1, dtype=np.int64)
     for d in range(1, k + 1):  # the nearest kept slot d places away, d growing until every slot has one

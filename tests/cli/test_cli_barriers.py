@@ -25,8 +25,8 @@ def case(tmp_path_factory):
     folder = tmp_path_factory.mktemp("barriers")
     write_mesh(folder / "m.ply", V, F)
     (folder / "s.csv").write_text("vertex,u\n" + "".join(f"{i},{v!r}\n" for i, v in zip(IDX, step(V[IDX]).tolist())))
-    (folder / "wall.txt").write_text("# the wall\n" + " ".join(map(str, WALL[:8])) + "\n" + ", ".join(map(str, WALL[7:]))
-                                     + "\n")
+    (folder / "wall.txt").write_text("# the wall\n" + " ".join(map(str, WALL[:8])) + "\n"
+                                     + ", ".join(map(str, WALL[7:])) + "\n")
     (folder / "wall.csv").write_text("barrier,x,y,z\n" + "".join(f"0,{a!r},{b!r},{c!r}\n"
                                                                  for a, b, c in V[np.r_[WALL[::3], WALL[-1]]].tolist()))
     np.save(folder / "labels.npy", (V[F].mean(axis=1)[:, 0] > 0.5).astype(np.int32))
@@ -63,7 +63,8 @@ def test_clean_renumbers_the_barriers_and_stl_refuses_them_by_index(tmp_path, ca
     f0 = np.flatnonzero((F == 0).any(axis=1))[0]
     F2[f0] = np.where(F[f0] == 0, 0, F[f0] + 1)
     write_mesh(tmp_path / "u.vtp", V2, F2)
-    (tmp_path / "s.csv").write_text("vertex,u\n" + "".join(f"{i + 1},{v!r}\n" for i, v in zip(IDX, step(V[IDX]).tolist())))
+    rows = zip(IDX, step(V[IDX]).tolist())
+    (tmp_path / "s.csv").write_text("vertex,u\n" + "".join(f"{i + 1},{v!r}\n" for i, v in rows))
     (tmp_path / "w.txt").write_text(" ".join(str(w + 1) for w in WALL) + "\n")
     out = tmp_path / "o.vtu"
     code, _, err = run(capsys, "reconstruct", tmp_path / "u.vtp", tmp_path / "s.csv", "-o", out, "--method",

@@ -67,7 +67,8 @@ def test_every_point_output_reads_back(tmp_path, capsys, cloud, suffix):
 def test_a_time_series_on_a_cloud(tmp_path, capsys, cloud):
     steps = np.array([temp(V[IDX]) * k for k in (1.0, 2.0, 3.0)]).T
     src = tmp_path / "ts.csv"
-    src.write_text("vertex,t0,t1,t2\n" + "".join(f"{i},{a!r},{b!r},{c!r}\n" for i, (a, b, c) in zip(IDX, steps.tolist())))
+    rows = zip(IDX, steps.tolist())
+    src.write_text("vertex,t0,t1,t2\n" + "".join(f"{i},{a!r},{b!r},{c!r}\n" for i, (a, b, c) in rows))
     out = tmp_path / "ts.xdmf"
     code, _, err = run(capsys, "reconstruct", cloud / "c.xyz", src, "-o", out, "--method", "harmonic")
     assert code == 0, err

@@ -26,10 +26,10 @@ from ..viz.viewer import write_html
 from .outputs import check_outputs
 from ..surface.methods.registry import METHODS, method_of
 
-__all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg", "step_bar", "print_time",
-           "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges", "err", "std_methods",
-           "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws", "add_draws",
-           "VECTOR_OUTPUTS", "gradient_names", "barriers_arg", "check_barrier_numbering"]
+__all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg",
+           "step_bar", "print_time", "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges",
+           "err", "std_methods", "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws",
+           "add_draws", "VECTOR_OUTPUTS", "gradient_names", "barriers_arg", "check_barrier_numbering"]
 
 
 def barriers_arg(args):

@@ -9,13 +9,13 @@ from ..mesh.subdivide import check_subdivide, subdivide
 from ..report import value_columns
 from ..surface.methods.registry import configure, method_of
 from ..surface.reconstruct import reconstruct
-from .common import (add_draws, barriers_arg, bounds_arg, check_draws, check_names, field_list, levels, smoothing_arg, load, pictures, print_ranges,
-                     print_time, step_bar, print_uncertainty, std_names, surface_outputs, uncertainty_opts,
-                     write_surface)
+from .common import (add_draws, barriers_arg, bounds_arg, check_draws, check_names, field_list, levels, smoothing_arg,
+                     load, pictures, print_ranges, print_time, step_bar, print_uncertainty, std_names,
+                     surface_outputs, uncertainty_opts, write_surface)
 from .series import SERIES_OUTPUTS, is_series, run_series
 from .gradients import add_gradient
-from .options import (cloud_args, energy_args, fill_args, gradient_args, output_args, picture_args, pipeline_args, sample_args,
-                      series_args, uncertainty_args)
+from .options import (cloud_args, energy_args, fill_args, gradient_args, output_args, picture_args, pipeline_args,
+                      sample_args, series_args, uncertainty_args)
 
 __all__ = ["add_parser", "run"]
 

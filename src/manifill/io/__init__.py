@@ -56,9 +56,8 @@ from .solids import GRID_FORMATS, TET_FORMATS, has_tets, read_mask, read_tets, r
 from .results import save_result
 
 __all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFormat", "MeshFile", "read_mesh", "read_mesh_file", "write_mesh",
-           "write_cells", "BARRIER_FORMATS", "read_barriers", "format_note", "SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES",
-           "check_field_names", "stored_names", "SAMPLE_FORMATS", "VALUE_FORMATS", "read_samples", "write_values",
-           "save_result",
-           "TET_FORMATS", "GRID_FORMATS", "has_tets", "read_tets", "write_tets", "read_vti", "write_vti", "read_mask",
-           "atomic_path", "SERIES_FORMATS", "SampleSeries", "read_series", "read_series_values", "SeriesWriter",
-           "write_series"]
+           "write_cells", "BARRIER_FORMATS", "read_barriers", "format_note", "SAMPLE_MASK", "CURVE_MASK",
+           "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES", "check_field_names", "stored_names", "SAMPLE_FORMATS",
+           "VALUE_FORMATS", "read_samples", "write_values", "save_result", "TET_FORMATS", "GRID_FORMATS", "has_tets",
+           "read_tets", "write_tets", "read_vti", "write_vti", "read_mask", "atomic_path", "SERIES_FORMATS",
+           "SampleSeries", "read_series", "read_series_values", "SeriesWriter", "write_series"]

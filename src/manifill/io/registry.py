@@ -36,9 +36,8 @@ from .vtklegacy_write import write_legacy
 from .vtkxml_read import read_polydata, read_unstructured
 from .vtkxml_write import write_polydata, write_unstructured
 
-__all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh", "read_mesh_file",
-           "reading_once",
-           "check_cells", "write_mesh", "write_cells", "format_note"]
+__all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh",
+           "read_mesh_file", "reading_once", "check_cells", "write_mesh", "write_cells", "format_note"]
 
 
 

@@ -151,8 +151,12 @@ class Cloud:
 
     def _robust(self):
         if not hasattr(self, "_robust_pair"):
-            import robust_laplacian
-
+            try:
+                import robust_laplacian
+            except ImportError:
+                raise ImportError("weights='robust' on a point cloud needs the robust-laplacian package: pip install "
+                                  "'manifill[robust]' (or leave weights out: the cloud's own cotangent "
+                                  "weights)") from None
             L, M = robust_laplacian.point_cloud_laplacian(self.P / self.scale, n_neighbors=max(self.k, 8))
             L = sp.csr_array(L)
             L.sort_indices()
@@ -198,7 +202,7 @@ class Cloud:
 
 def _frames(Pu, nbr):
     """``(n, 3, 3)`` rows ``e1, e2, normal`` from the covariance of each point and its neighbours (all of them: the
-    nearest ten alone, lopsided on an icosphere, tilted the plane and doubled the gradient's error)."""
+    nearest ten alone, lopsided on an icosphere, tilted the plane and raised the gradient's error)."""
     X = np.concatenate([Pu[:, None, :], Pu[nbr]], axis=1)
     X = X - X.mean(axis=1, keepdims=True)
     _, vecs = np.linalg.eigh(np.einsum("nki,nkj->nij", X, X))  # ascending: the smallest is the normal

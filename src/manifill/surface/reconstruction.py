@@ -233,8 +233,8 @@ class Reconstruction(Result):
         """
 
         mesh = to_pyvista(self.V, self.F, self.point_data(names))
-        for kind, ours, count in (("point_data", mesh.point_data, len(self.V)), ("cell_data", mesh.cell_data,
-                                                                                 -1 if self.F is None else len(self.F))):
+        cells = -1 if self.F is None else len(self.F)  # a point cloud: no cells of the source to carry
+        for kind, ours, count in (("point_data", mesh.point_data, len(self.V)), ("cell_data", mesh.cell_data, cells)):
             theirs = getattr(self.source, kind, None)
             pyvista = type(self.source).__module__.startswith("pyvista")  # meshio's cell data is per block
             if theirs is None or (kind == "cell_data" and (not pyvista or self.source.n_cells != count)):

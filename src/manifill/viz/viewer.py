@@ -16,6 +16,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import OptionError, ReadError, WriteError
 from ..io.files import atomic_path
@@ -222,8 +223,10 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
     >>> list(arrays["fields"]), arrays["field"], bool(np.allclose(arrays["values"], V[:, 0]))
     (['z', 'x'], 'x', True)
     """
-    if F is None:  # a point cloud: drawn as points
+    spacing = 0.0
+    if F is None:  # a point cloud: drawn as points as wide as their median spacing
         V, F = as_vertices(V), np.zeros((0, 3), dtype=np.int64)
+        spacing = float(np.median(cKDTree(V).query(V, k=2)[0][:, 1])) if len(V) > 1 else 0.0
     else:
         V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     n = len(V)
@@ -244,7 +247,7 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
     data = {
         "positions": _b64(V, np.float32), "faces": _b64(F, np.uint32), "samples": _b64(samples, np.uint32),
         "segments": _b64(seg, np.uint32), "fields": table, "field": chosen, "title": str(title),
-        "counts": [n, len(F), int(samples.size), len(seg)],
+        "counts": [n, len(F), int(samples.size), len(seg)], "spacing": spacing,
     }
     subs = {"__TITLE__": html.escape(str(title)), "__DATA__": _script_json(data)}
     page = re.sub("__TITLE__|__DATA__", lambda mo: subs[mo.group()], _TEMPLATE.read_text(encoding="utf-8"))

@@ -328,8 +328,9 @@ def format_note(path):
     shown = " and ".join(_READERS_SHOWN[r] for r in missing)
     seen = ", ".join(_READERS_SHOWN[r] for r in fmt.seen_by)
     verb = "does" if len(fmt.seen_by) == 1 else "do"
-    return (f"note: {Path(path).name}: {shown} do not show {fmt.name} files' named fields ({seen} {verb}); write "
-            f".vtu for every reader")
+    verb_missing = "does" if missing == ["meshio"] else "do"  # "meshio does", "pyvista/VTK/ParaView do"
+    return (f"note: {Path(path).name}: {shown} {verb_missing} not show {fmt.name} files' named fields ({seen} "
+            f"{verb}); write .vtu for every reader")
 
 
 def _field_array(name, arr, n):

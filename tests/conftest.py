@@ -326,7 +326,8 @@ INSTALLS = {
     "nibabel": "pip install -e '.[neuro]'",
     "dask": "pip install -e '.[batch]'",
     "potpourri3d": "pip install -e '.[bench]'",
-    "mne": "pip install -e '.[bench]' (mne)",
+    "mne": "pip install -e '.[mne]'",
+    "scikit-learn": "pip install -e '.[sklearn]'",
 }
 
 

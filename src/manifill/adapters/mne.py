@@ -1,0 +1,219 @@
+"""MNE-Python objects in, MNE-Python objects out: bad EEG channels filled, the field over the whole scalp.
+
+- :func:`head_surface`: the scalp MNE ships (fsaverage's head, in MNE's head coordinates, metres), or a BEM or
+  scalp surface you give (``mne.read_bem_surfaces`` dicts, or ``(V, F)`` in head coordinates);
+- :func:`electrodes`: the EEG channels' positions from an ``Info`` (its montage or digitisation, head frame);
+  MEG sensors are refused with the reason (they sit outside the head, not on the scalp);
+- :class:`ScalpMap`: the linear map from the good channels to every vertex of the scalp and to the bad channels,
+  built once (one factorisation, one solve per good channel) by any linear manifill method -- the biharmonic by
+  default -- and applied to every sample of every epoch;
+- :func:`interpolate_bads`: a copy of a ``Raw``, ``Epochs`` or ``Evoked`` with its bad EEG channels filled, as
+  MNE's own ``interpolate_bads`` returns (``reset_bads`` likewise);
+- :func:`to_surface`: an ``Evoked`` (or any instance) as a field over the whole scalp, one column per time
+  sample: a :class:`manifill.Reconstruction` (write it with ``.save``).
+
+Electrodes are located at their closest point of the scalp (up to ``max_distance``, 3 cm by default: a
+template head and a subject's cap differ by a centimetre or two). Needs the ``[mne]`` extra (MNE-Python).
+"""
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OptionError, SampleError
+from ..surface.locate import locate_points
+from ..surface.reconstructor import Reconstructor
+
+try:
+    import mne
+except ImportError:  # the extra, named when used
+    raise ImportError("manifill.adapters.mne needs MNE-Python: pip install 'manifill[mne]'") from None
+
+__all__ = ["head_surface", "electrodes", "ScalpMap", "interpolate_bads", "to_surface", "MAX_DISTANCE"]
+
+#: How far (metres) an electrode may sit from the scalp surface and still be located on it.
+MAX_DISTANCE = 0.03
+
+
+def head_surface(surface=None):
+    """``(V, F)`` of a scalp in MNE's head coordinates (metres).
+
+    Parameters
+    ----------
+    surface : None, str, dict or (V, F)
+        None: fsaverage's head as MNE ships it (``mne/data/fsaverage/fsaverage-head.fif``, moved from MRI to head
+        coordinates by the shipped ``fsaverage-trans.fif``); a path to a BEM ``.fif``; a surface dict of
+        ``mne.read_bem_surfaces`` (its ``rr`` and ``tris``, head or MRI frame: MRI needs the ``trans`` dict under
+        ``'trans'``); or ``(V, F)`` arrays already in head coordinates.
+    """
+    if isinstance(surface, tuple) and len(surface) == 2:
+        return np.asarray(surface[0], dtype=np.float64), np.asarray(surface[1], dtype=np.int64)
+    if surface is None:  # read once per process
+        V, F = _fsaverage_head()
+        return V.copy(), F.copy()
+    return _surface_of(surface)
+
+
+@lru_cache(maxsize=1)
+def _fsaverage_head():
+    return _surface_of(None)
+
+
+def _surface_of(surface):
+    data = Path(mne.__file__).parent / "data" / "fsaverage"
+    trans = None
+    if surface is None or isinstance(surface, (str, Path)):
+        path = data / "fsaverage-head.fif" if surface is None else Path(surface)
+        surface = mne.read_bem_surfaces(str(path), verbose=False)[0]
+        if surface is not None and path.parent == data:
+            trans = mne.read_trans(str(data / "fsaverage-trans.fif"), verbose=False)
+    if not isinstance(surface, dict) or "rr" not in surface or "tris" not in surface:
+        raise OptionError("surface is not a BEM surface dict (with 'rr' and 'tris'), a path to one, or (V, F) in head "
+                          "coordinates; pass one of those, or None for fsaverage's head")
+    V = np.asarray(surface["rr"], dtype=np.float64)
+    trans = surface.get("trans", trans)
+    if surface.get("coord_frame") == mne.io.constants.FIFF.FIFFV_COORD_MRI:
+        if trans is None:
+            raise OptionError("the surface is in MRI coordinates and no head<->MRI transform came with it; add it "
+                              "as surface['trans'] (mne.read_trans) or pass (V, F) in head coordinates")
+        to_head = trans if trans["from"] == mne.io.constants.FIFF.FIFFV_COORD_MRI else mne.transforms.invert_transform(
+            trans)
+        V = mne.transforms.apply_trans(to_head, V)
+    return V, np.asarray(surface["tris"], dtype=np.int64)
+
+
+def electrodes(info, picks=None):
+    """``(names, positions (k, 3))`` of the EEG channels of ``info`` (all, or ``picks`` by name), head frame.
+
+    Raises
+    ------
+    OptionError
+        MEG channels asked for, channels without positions (no montage), positions in another frame.
+    """
+    eeg = mne.pick_types(info, meg=False, eeg=True, exclude=[])
+    meg = mne.pick_types(info, meg=True, eeg=False, exclude=[])
+    names = [info["ch_names"][i] for i in eeg] if picks is None else list(picks)
+    bad = [n for n in names if n in {info["ch_names"][i] for i in meg}]
+    if bad:
+        raise OptionError(f"{bad[0]} is a MEG sensor: it measures the field outside the head, not a potential on the "
+                          f"scalp; fill EEG channels (MEG interpolation needs a field model: mne's interpolate_bads)")
+    missing = [n for n in names if n not in info["ch_names"]]
+    if missing:
+        raise OptionError(f"channel {missing[0]!r} is not in the data; pass names of its EEG channels")
+    chs = [info["chs"][info["ch_names"].index(n)] for n in names]
+    P = np.array([c["loc"][:3] for c in chs], dtype=np.float64).reshape(-1, 3)
+    none = [n for n, p in zip(names, P) if not np.isfinite(p).all() or not np.any(p)]
+    if none:
+        raise OptionError(f"channel {none[0]!r} has no position ({len(none)} without); set a montage first "
+                          f"(inst.set_montage('standard_1020') or the digitisation)")
+    frames = {c["coord_frame"] for c in chs}
+    if frames != {mne.io.constants.FIFF.FIFFV_COORD_HEAD}:
+        raise OptionError(f"the electrodes are in coordinate frame {sorted(frames)}, not the head frame; set the "
+                          f"montage with inst.set_montage(...), which puts them in head coordinates")
+    return names, P
+
+
+class ScalpMap:
+    """The linear map from ``good`` channels to the scalp's vertices and to the ``targets`` channels.
+
+    Parameters
+    ----------
+    info : mne.Info
+    good : list of str
+        The channels measured.
+    targets : list of str, optional
+        Channels to fill (the bad ones).
+    surface : as :func:`head_surface`
+    method : str
+        A method linear in the values (``biharmonic`` by default; ``harmonic``, ``triharmonic``, ``rbf``, ``gp``
+        with its range and sigma given, ``gvf-harmonic`` with ``curve_values='hermite'``).
+    max_distance : float
+        The farthest an electrode may be from the scalp (metres).
+    **options
+        Of :func:`manifill.reconstruct` (``smoothing`` a number, ...).
+
+    Attributes
+    ----------
+    V, F : the scalp
+    W : (n, k) numpy array
+        Every vertex from the ``k`` good channels.
+    B : (t, k) numpy array
+        The target channels from the good ones.
+    """
+
+    def __init__(self, info, good, targets=(), *, surface=None, method="biharmonic", max_distance=MAX_DISTANCE,
+                 **options):
+        self.V, self.F = head_surface(surface)
+        self.good, self.targets = list(good), list(targets)
+        _, P = electrodes(info, self.good)
+        if len(self.good) < 4:
+            raise SampleError(f"{len(self.good)} good EEG channels; a scalp map needs at least 4")
+        rec = Reconstructor(self.V, self.F, P, method=method, max_distance=max_distance, fields=len(P), prepare=False,
+                            **options)
+        if not rec.linear:
+            raise OptionError(f"method={method!r} as configured is not linear in the values ({rec._why}), so it has "
+                              f"no map to apply to every sample; use method='biharmonic' (or a gp with range and "
+                              f"sigma given)")
+        self.reconstructor = rec
+        self.W = np.asarray(rec.matrix(form="operator") @ np.eye(len(P)))
+        self.B = np.zeros((0, len(P)))
+        if self.targets:
+            _, T = electrodes(info, self.targets)
+            loc = locate_points(self.V, self.F, T, max_distance=max_distance)
+            self.B = np.einsum("tc,tck->tk", loc.bary, self.W[loc.corners])
+
+    def apply(self, data):
+        """``(targets, ...)`` values of the target channels from the good channels' ``(good, ...)`` data."""
+        X = np.asarray(data, dtype=np.float64)
+        return np.tensordot(self.B, X, axes=(1, 0))
+
+
+def _eeg_bads(inst):
+    eeg = set(inst.info["ch_names"][i] for i in mne.pick_types(inst.info, meg=False, eeg=True, exclude=[]))
+    bads = [b for b in inst.info["bads"] if b in eeg]
+    good = [n for n in inst.info["ch_names"] if n in eeg and n not in bads]
+    return bads, good
+
+
+def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic", **options):
+    """A copy of ``inst`` (``Raw``, ``Epochs`` or ``Evoked``, data loaded) with its bad EEG channels filled.
+
+    The map is built once from the good channels' positions (:class:`ScalpMap`) and applied to every sample of
+    every epoch. ``reset_bads`` empties ``info['bads']`` of the channels filled, as MNE's ``interpolate_bads`` does.
+
+    Raises
+    ------
+    OptionError
+        No bad EEG channel, data not loaded, MEG channels only, channels without positions.
+    """
+    bads, good = _eeg_bads(inst)
+    if not bads:
+        raise OptionError("info['bads'] names no EEG channel; mark the bad channels first (inst.info['bads'] = [...])")
+    if isinstance(inst, mne.io.BaseRaw) and not inst.preload:
+        raise OptionError("the Raw's data are not loaded; load them (raw.load_data()) before filling channels")
+    out = inst.copy()
+    m = ScalpMap(out.info, good, bads, surface=surface, method=method, **options)
+    names = out.info["ch_names"]
+    gi, bi = [names.index(n) for n in good], [names.index(n) for n in bads]
+    data = out.data if isinstance(out, mne.Evoked) else out._data  # noqa: SLF001 (MNE fills channels so too)
+    if data.ndim == 3:  # epochs x channels x times
+        data[:, bi, :] = np.einsum("bk,ekt->ebt", m.B, data[:, gi, :])
+    else:
+        data[bi] = m.B @ data[gi]
+    if reset_bads:
+        out.info["bads"] = [b for b in out.info["bads"] if b not in bads]
+    return out
+
+
+def to_surface(inst, *, surface=None, method="biharmonic", **options):
+    """The EEG field over the whole scalp: a :class:`manifill.Reconstruction` of ``(n_vertices, n_times)`` values
+    (an ``Epochs``: its average), from the good channels."""
+    bads, good = _eeg_bads(inst)
+    evoked = inst.average() if isinstance(inst, mne.BaseEpochs) else inst
+    V, F = head_surface(surface)
+    _, P = electrodes(evoked.info, good)
+    data = evoked.get_data(picks=good)
+    rec = Reconstructor(V, F, P, method=method, max_distance=options.pop("max_distance", MAX_DISTANCE),
+                        fields=data.shape[1], **options)
+    return rec.apply(data)

@@ -26,14 +26,16 @@ from .options import check_workers
 __all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
 
 #: Outputs that make ``reconstruct`` write a time series (``.npy`` too, when the samples are one).
-SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5")
+SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5", ".gii")
+#: Outputs that make the samples a series whatever they hold (a .gii holds a result's fields or a series' steps).
+SERIES_ONLY = (".xdmf", ".pvd", ".h5", ".hdf5")
 
 
 def is_series(samples, out, chunk=None):
     """Whether ``reconstruct`` reads ``samples`` as a time series: a series output, ``--chunk``, a folder or a
     glob pattern of per-time files, an NPZ with ``times``, or a CSV whose first value column is ``time``."""
     p = Path(samples)
-    if Path(out).suffix.lower() in SERIES_OUTPUTS or p.is_dir() or chunk is not None:
+    if Path(out).suffix.lower() in SERIES_ONLY or p.is_dir() or chunk is not None:
         return True
     if p.suffix.lower() == ".npz" and p.is_file():
         try:

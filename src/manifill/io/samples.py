@@ -35,12 +35,13 @@ from ..errors import MeshError, ReadError, SampleError, WriteError
 from ..surface.samples import Samples, field_names
 from ..validate.samples import MAX_VALUE
 from .files import atomic_path, check_input_file, reading, suffix
+from .gifti_write import write_gifti_data
 from .neuro import MORPH_SUFFIXES, read_label, read_vertex_data, sniff
 
 __all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "SampleTable", "read_samples", "read_sample_table",
            "samples_from_table", "load_npz", "write_values"]
 
-VALUE_FORMATS = (".csv", ".npy")
+VALUE_FORMATS = (".csv", ".npy", ".gii")
 SAMPLE_FORMATS = (".csv", ".npz", ".npy", ".gii", ".mgh", ".mgz", ".label")
 _VERTEX_COLUMNS = ("vertex", "idx", "index", "vertex_id", "id")
 
@@ -383,7 +384,7 @@ def _read_structured_npy(path):
 
 
 def write_values(path, values, *, names=None):
-    """Write per-vertex values as CSV (``vertex,name...``) or NPY, atomically.
+    """Write per-vertex values as CSV (``vertex,name...``), NPY or GIfTI (``.func.gii``), atomically.
 
     Parameters
     ----------
@@ -401,6 +402,8 @@ def write_values(path, values, *, names=None):
         write.
     """
     ext = suffix(path, VALUE_FORMATS, "write")
+    if ext == ".gii":  # one data array per field (.func.gii)
+        return write_gifti_data(path, values, names=names)
     values = np.asarray(values, dtype=np.float64)
     values = values[:, None] if values.ndim == 1 else values
     if values.ndim != 2:

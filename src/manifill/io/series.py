@@ -91,6 +91,7 @@ SERIES_FORMATS = {
     ".npy": SeriesFormat("NumPy array", False, False, True),
     ".h5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
     ".hdf5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
+    ".gii": SeriesFormat("GIfTI time series", True, False, False, "neuro", ("nibabel", "nilearn", "Workbench")),
 }
 
 

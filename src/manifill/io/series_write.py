@@ -54,6 +54,7 @@ from ..errors import WriteError
 from .field_names import check_field_names
 from .files import ACTIVE, remove_temporaries, suffix
 from .series import SERIES_FORMATS, need_h5py
+from .gifti_write import GiftiSeries
 from .vtkxml_write import write_unstructured
 
 __all__ = ["SeriesWriter", "write_series"]
@@ -187,8 +188,7 @@ class SeriesWriter:
         self.written = 0
         self.last_time = None
         self._open = False
-        backend = {".xdmf": _Xdmf, ".pvd": _Pvd, ".npy": _Npy}.get(ext, _H5)
-        self._out = backend(self)
+        self._out = {".xdmf": _Xdmf, ".pvd": _Pvd, ".npy": _Npy, ".gii": GiftiSeries}.get(ext, _H5)(self)
         self._open = True
 
     def __enter__(self):

@@ -1,0 +1,178 @@
+"""Stations on the globe, by longitude and latitude, to fields on a sphere or a regular lon/lat grid (xarray).
+
+:func:`reconstruct_globe` takes stations as a pandas ``DataFrame`` (one row per station: ``lon``, ``lat`` and a
+value column per field) or an xarray ``Dataset`` (a ``station`` dimension, ``lon``/``lat`` along it, and the
+variable with or without a ``time`` dimension), places them on the unit sphere (:func:`globe_mesh`, an icosphere
+as fine as the grid asked for, or your mesh), reconstructs with any manifill method -- distances along the sphere
+by construction, never through it -- and gives an xarray ``DataArray`` on the mesh's vertices or resampled to a
+regular grid (``grid=1.0``: every degree), with CF attributes (``latitude``/``longitude`` in degrees north/east,
+``Conventions: CF-1.8``), ready for ``.to_netcdf``. One factorisation serves every time step. Needs the
+``[xarray]`` extra (xarray; netCDF4 or h5netcdf for the files).
+"""
+
+import math
+
+import numpy as np
+
+from ..errors import OptionError, SampleError
+from ..mesh.shapes import icosphere
+from ..surface.reconstructor import Reconstructor
+
+try:
+    import xarray as xr
+except ImportError:  # the extra, named when used
+    raise ImportError("manifill.adapters.globe needs xarray: pip install 'manifill[xarray]'") from None
+
+__all__ = ["globe_mesh", "lonlat_to_xyz", "xyz_to_lonlat", "reconstruct_globe", "write_netcdf", "EDGE_DEGREES"]
+
+#: The icosphere of level k has edges of about this many degrees over 2^k.
+EDGE_DEGREES = 63.43
+
+
+def lonlat_to_xyz(lon, lat):
+    """Unit vectors of longitudes and latitudes in degrees: ``(k, 3)``."""
+    lo, la = np.radians(np.asarray(lon, dtype=np.float64)), np.radians(np.asarray(lat, dtype=np.float64))
+    return np.column_stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)])
+
+
+def xyz_to_lonlat(P):
+    """Longitudes in ``[-180, 180)`` and latitudes of points ``(k, 3)``, degrees."""
+    P = np.asarray(P, dtype=np.float64)
+    lon = np.degrees(np.arctan2(P[:, 1], P[:, 0]))
+    lat = np.degrees(np.arcsin(np.clip(P[:, 2] / np.linalg.norm(P, axis=1), -1.0, 1.0)))
+    return np.where(lon >= 180.0, lon - 360.0, lon), lat
+
+
+def globe_mesh(resolution=1.0):
+    """The unit icosphere whose edges are at most about ``resolution`` degrees (level 6 for 1 degree: 40,962 vertices).
+
+    Examples
+    --------
+    >>> V, F = globe_mesh(5.0)
+    >>> len(V)
+    2562
+    """
+    if not (isinstance(resolution, (int, float)) and 0.05 <= resolution <= 60):
+        raise OptionError(f"resolution={resolution!r} degrees; pass a number in [0.05, 60]")
+    level = max(0, math.ceil(math.log2(EDGE_DEGREES / resolution)))
+    return icosphere(level)
+
+
+def _stations(data, var, lon, lat, station, time):
+    """``(lon (k,), lat (k,), values (k, T), times or None, name, attrs)`` of a DataFrame or a Dataset."""
+    if hasattr(data, "data_vars"):  # an xarray Dataset
+        names = [v for v in data.data_vars if v not in (lon, lat)] if var is None else [var]
+        if len(names) != 1:
+            raise OptionError(f"the Dataset has {len(names)} variables ({', '.join(map(str, names))}); pass var= one "
+                              f"of them")
+        da = data[names[0]]
+        if station not in da.dims:
+            raise OptionError(f"{names[0]} has dimensions {da.dims}, no {station!r}; pass station= its station "
+                              f"dimension")
+        extra = [d for d in da.dims if d not in (station, time)]
+        if extra:
+            raise OptionError(f"{names[0]} has dimensions {extra} besides {station!r} and {time!r}; select them away")
+        times = da[time].values if time in da.dims else None
+        values = da.transpose(station, *([time] if times is not None else [])).values
+        lons, lats = data[lon].values, data[lat].values
+        return lons, lats, values.reshape(len(lons), -1), times, str(names[0]), dict(da.attrs)
+    if not hasattr(data, "columns"):
+        raise OptionError(f"stations are a pandas DataFrame or an xarray Dataset, not {type(data).__name__}")
+    for c in (lon, lat):
+        if c not in data.columns:
+            raise OptionError(f"the DataFrame has no column {c!r}; pass lon= and lat= its longitude and latitude "
+                              f"columns (degrees)")
+    cols = [c for c in data.columns if c not in (lon, lat, station)] if var is None else [var]
+    values = data[cols].to_numpy(dtype=np.float64)
+    return data[lon].to_numpy(float), data[lat].to_numpy(float), values, None, "value" if len(cols) != 1 else str(
+        cols[0]), {}
+
+
+def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station", time="time", grid=1.0, mesh=None,
+                      method="biharmonic", std=False, **options):
+    """Stations by longitude and latitude -> a field on the sphere, as an xarray ``DataArray`` (see the module).
+
+    Parameters
+    ----------
+    data : pandas.DataFrame or xarray.Dataset
+    var : str, optional
+        The variable (a Dataset's) or the value column (a DataFrame's; all the other columns when None).
+    lon, lat, station, time : str
+        The names of the longitude and latitude (degrees), station and time.
+    grid : float or None
+        The output grid's spacing in degrees (``lat`` -90..90, ``lon`` -180..180 exclusive); None: the mesh's
+        vertices (a ``vertex`` dimension with ``lon``/``lat`` coordinates).
+    mesh : (V, F), optional
+        Your sphere (unit radius, centred); by default :func:`globe_mesh` at ``grid`` (or 1 degree).
+    method : str
+        Any method of :func:`manifill.reconstruct`.
+    std : bool
+        Also the std (``method='gp'``, or ``uncertainty=True``): a ``Dataset`` of the field and ``<var>_std``.
+    **options
+        Of :func:`manifill.reconstruct`.
+
+    Returns
+    -------
+    xarray.DataArray (or Dataset with ``std``)
+    """
+    lons, lats, values, times, name, attrs = _stations(data, var, lon, lat, station, time)
+    bad = np.flatnonzero(~(np.isfinite(lons) & np.isfinite(lats) & (np.abs(lats) <= 90)))
+    if bad.size:
+        raise SampleError(f"station {int(bad[0])} has longitude {lons[bad[0]]!r} and latitude {lats[bad[0]]!r}; pass "
+                          f"finite degrees with latitudes in [-90, 90]")
+    V, F = globe_mesh(grid if grid is not None else 1.0) if mesh is None else mesh
+    V = np.asarray(V, dtype=np.float64)
+    P = lonlat_to_xyz(lons, lats) * float(np.median(np.linalg.norm(V, axis=1)))
+    options.setdefault("solver", "direct")  # one factorisation for every time step (AMG would iterate per step)
+    rec = Reconstructor(V, F, P, method=method, fields=values.shape[1], uncertainty=True if std else None, **options)
+    r = rec.apply(values)
+    X = np.asarray(r.values).reshape(len(V), -1)
+    S = None if not std else np.asarray(r.std).reshape(len(V), -1)
+    dims_t = ["time"] if times is not None else ([] if X.shape[1] == 1 else ["field"])
+    coords_t = {"time": times} if times is not None else ({} if X.shape[1] == 1 else {"field": np.arange(X.shape[1])})
+    if grid is None:
+        vlon, vlat = xyz_to_lonlat(V)
+        coords = {"lon": ("vertex", vlon, _LON), "lat": ("vertex", vlat, _LAT), **coords_t}
+        out = {name: (dims_t + ["vertex"], X.T.reshape(*([X.shape[1]] if dims_t else []), len(V)))}
+        if S is not None:
+            out[name + "_std"] = (dims_t + ["vertex"], S.T.reshape(*([S.shape[1]] if dims_t else []), len(V)))
+    else:
+        glat = np.linspace(-90.0, 90.0, int(round(180.0 / grid)) + 1)
+        glon = np.arange(-180.0, 180.0 - 1e-9, grid)
+        Lo, La = np.meshgrid(glon, glat)
+        Q = lonlat_to_xyz(Lo.ravel(), La.ravel()) * float(np.median(np.linalg.norm(V, axis=1)))
+        at = r.at(Q, return_std=std, max_distance=0.1)
+        G, GS = (at if std else (at, None))
+        shape = (len(glat), len(glon))
+        def cube(A):
+            A = np.asarray(A).reshape(len(Q), -1)
+            return A.T.reshape(-1, *shape) if dims_t else A[:, 0].reshape(shape)
+        coords = {"lat": ("lat", glat, _LAT), "lon": ("lon", glon, _LON), **coords_t}
+        out = {name: (dims_t + ["lat", "lon"], cube(G))}
+        if GS is not None:
+            out[name + "_std"] = (dims_t + ["lat", "lon"], cube(GS))
+    ds = xr.Dataset({k: (d, a) for k, (d, a) in out.items()}, coords={k: (c[0], c[1], c[2]) if isinstance(c, tuple)
+                                                                       else c for k, c in coords.items()})
+    ds[name].attrs.update(attrs)
+    ds[name].attrs.setdefault("long_name", name)
+    ds.attrs.update({"Conventions": "CF-1.8", "source": f"manifill {method} from {len(lons)} stations",
+                     "history": f"reconstructed on a sphere of {len(V):,} vertices"})
+    return ds if std else ds[name].assign_attrs(Conventions="CF-1.8", source=ds.attrs["source"],
+                                                history=ds.attrs["history"])
+
+
+def write_netcdf(field, path):
+    """Write a :func:`reconstruct_globe` result as netCDF, its ``Conventions``, ``source`` and ``history`` global
+    (as CF puts them), through xarray's ``to_netcdf``."""
+    ds = field if hasattr(field, "data_vars") else field.to_dataset()
+    glob = {k: v for k, v in (field.attrs if not hasattr(field, "data_vars") else ds.attrs).items()
+            if k in ("Conventions", "source", "history")}
+    ds = ds.assign_attrs(glob)
+    for v in ds.data_vars:
+        ds[v].attrs = {k: a for k, a in ds[v].attrs.items() if k not in glob}
+    ds.to_netcdf(path)
+    return path
+
+
+_LAT = {"standard_name": "latitude", "long_name": "latitude", "units": "degrees_north", "axis": "Y"}
+_LON = {"standard_name": "longitude", "long_name": "longitude", "units": "degrees_east", "axis": "X"}

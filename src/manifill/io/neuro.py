@@ -189,8 +189,8 @@ def read_vertex_data(path, n):
     Parameters
     ----------
     path : str or Path
-    n : int
-        The number of vertices of the surface the data belongs to.
+    n : int or None
+        The number of vertices of the surface the data belongs to (None, a GIfTI file: its first data array's).
 
     Returns
     -------
@@ -216,6 +216,7 @@ def read_vertex_data(path, n):
                 continue
             a = np.asarray(a)
             a = a[:, None] if a.ndim == 1 else a
+            n = len(a) if n is None else n  # a series read on its own: its first array's length
             if a.ndim != 2 or len(a) != n:
                 raise ReadError(f"{name}: data array {j} has shape {np.shape(a)} but the mesh has {n:,} vertices; "
                                 f"pass the surface this data belongs to")

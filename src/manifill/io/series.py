@@ -48,6 +48,7 @@ from ..errors import ReadError, SampleError, WriteError
 from ..surface.samples import Samples
 from .files import check_input_file, reading, suffix
 from .meshio_files import meshio_read
+from .neuro import read_vertex_data
 from .samples import SAMPLE_FORMATS, SampleTable, load_npy, load_npz, read_sample_table, samples_from_table
 
 __all__ = ["SampleSeries", "read_series", "TIME_COLUMNS", "SERIES_FORMATS", "SeriesFormat", "need_h5py",
@@ -75,6 +76,8 @@ class SeriesFormat:
         The extra it needs (``series``: h5py).
     seen_by : tuple of str
         Common readers that open it.
+    exact : bool
+        It keeps float64 values (GIfTI keeps float32, what Workbench reads).
     """
 
     name: str
@@ -83,6 +86,7 @@ class SeriesFormat:
     needs_steps: bool
     extra: str = None
     seen_by: tuple = ()
+    exact: bool = True
 
 
 SERIES_FORMATS = {
@@ -91,7 +95,8 @@ SERIES_FORMATS = {
     ".npy": SeriesFormat("NumPy array", False, False, True),
     ".h5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
     ".hdf5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
-    ".gii": SeriesFormat("GIfTI time series", True, False, False, "neuro", ("nibabel", "nilearn", "Workbench")),
+    ".gii": SeriesFormat("GIfTI time series", False, False, False, "neuro", ("nibabel", "nilearn", "Workbench"),
+                         exact=False),
 }
 
 
@@ -380,6 +385,9 @@ def read_series_values(path, *, name=None):
         return np.arange(X.shape[1], dtype=np.float64), X
     if ext in (".h5", ".hdf5"):
         return _read_h5(path, name)
+    if ext == ".gii":  # one data array per step (float32), the step numbers as times
+        X, _ = read_vertex_data(path, None)
+        return np.arange(X.shape[1], dtype=np.float64), X
     steps = _read_xdmf(path, name) if ext == ".xdmf" else _read_pvd(path, name)
     if not steps:
         raise ReadError(f"{path.name}: no time steps; check the file")

@@ -85,3 +85,20 @@ def test_bad_stations_are_one_line():
     with pytest.raises(OptionError, match="pass var="):
         reconstruct_globe(xr.Dataset({"a": ("station", [1.0]), "b": ("station", [2.0])},
                                      coords={"lon": ("station", [0.0]), "lat": ("station", [0.0])}))
+
+
+def test_missing_observations_leave_a_station_out_of_those_steps():
+    """Station data have gaps (NaN): each step is reconstructed from the stations that reported, the steps with the
+    same stations sharing one factorisation; (time, station) order works as (station, time)."""
+    P = lonlat_to_xyz(LON, LAT)
+    vals = np.column_stack([field(P, t) for t in range(3)])
+    vals[5, 1] = vals[17, 1] = np.nan
+    ds = xr.Dataset({"v": (("time", "station"), vals.T)}, coords={"lon": ("station", LON), "lat": ("station", LAT),
+                                                                  "time": np.arange(3)})
+    da = reconstruct_globe(ds, var="v", grid=None, mesh=globe_mesh(8.0))
+    V, F = globe_mesh(8.0)
+    keep = np.isfinite(vals[:, 1])
+    want = manifill.reconstruct(V, F, P[keep], vals[keep, 1], method="biharmonic", solver="direct").values
+    assert np.allclose(da.isel(time=1).values, want, atol=1e-10)
+    full = manifill.reconstruct(V, F, P, vals[:, 0], method="biharmonic", solver="direct").values
+    assert np.allclose(da.isel(time=0).values, full, atol=1e-10)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import OptionError, SampleError
 from ..mesh.shapes import icosphere
+from ..surface.locate import locate_points
 from ..surface.reconstructor import Reconstructor
 
 try:
@@ -124,10 +125,7 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
     V = np.asarray(V, dtype=np.float64)
     P = lonlat_to_xyz(lons, lats) * float(np.median(np.linalg.norm(V, axis=1)))
     options.setdefault("solver", "direct")  # one factorisation for every time step (AMG would iterate per step)
-    rec = Reconstructor(V, F, P, method=method, fields=values.shape[1], uncertainty=True if std else None, **options)
-    r = rec.apply(values)
-    X = np.asarray(r.values).reshape(len(V), -1)
-    S = None if not std else np.asarray(r.std).reshape(len(V), -1)
+    X, S = _fields(V, F, P, values, method, std, options)
     dims_t = ["time"] if times is not None else ([] if X.shape[1] == 1 else ["field"])
     coords_t = {"time": times} if times is not None else ({} if X.shape[1] == 1 else {"field": np.arange(X.shape[1])})
     if grid is None:
@@ -141,8 +139,9 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
         glon = np.arange(-180.0, 180.0 - 1e-9, grid)
         Lo, La = np.meshgrid(glon, glat)
         Q = lonlat_to_xyz(Lo.ravel(), La.ravel()) * float(np.median(np.linalg.norm(V, axis=1)))
-        at = r.at(Q, return_std=std, max_distance=0.1)
-        G, GS = (at if std else (at, None))
+        loc = locate_points(V, F, Q, max_distance=0.1)  # linear on the sphere's faces, located once for all steps
+        G = np.einsum("qc,qct->qt", loc.bary, X[loc.corners])
+        GS = None if S is None else np.einsum("qc,qct->qt", loc.bary, S[loc.corners])
         shape = (len(glat), len(glon))
         def cube(A):
             A = np.asarray(A).reshape(len(Q), -1)
@@ -172,6 +171,26 @@ def write_netcdf(field, path):
         ds[v].attrs = {k: a for k, a in ds[v].attrs.items() if k not in glob}
     ds.to_netcdf(path)
     return path
+
+
+def _fields(V, F, P, values, method, std, options):
+    """``(X, S)`` on the vertices, ``(n, T)``: one Reconstructor per set of stations reporting (a station's missing
+    values, NaN, leave it out of those steps; the steps with the same stations share a factorisation)."""
+    finite = np.isfinite(values)
+    X = np.full((len(V), values.shape[1]), np.nan)
+    S = np.full_like(X, np.nan) if std else None
+    patterns, which = np.unique(finite.T, axis=0, return_inverse=True)
+    for g, rows in enumerate(patterns):
+        cols = np.flatnonzero(np.ravel(which) == g)
+        if rows.sum() < 3:
+            continue  # too few stations reporting: left NaN
+        rec = Reconstructor(V, F, P[rows], method=method, fields=cols.size, uncertainty=True if std else None,
+                            **options)
+        r = rec.apply(values[np.ix_(rows, cols)])
+        X[:, cols] = np.asarray(r.values).reshape(len(V), -1)
+        if std:
+            S[:, cols] = np.asarray(r.std).reshape(len(V), -1)
+    return X, S
 
 
 _LAT = {"standard_name": "latitude", "long_name": "latitude", "units": "degrees_north", "axis": "Y"}

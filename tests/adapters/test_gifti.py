@@ -67,3 +67,15 @@ def test_bad_gifti_writes_are_one_line(tmp_path):
         write_values(tmp_path / "a.func.gii", np.zeros((5, 2)), names=["one"])
     with pytest.raises(manifill.WriteError, match="does not exist"):
         write_values(tmp_path / "nope" / "a.func.gii", np.zeros(5))
+
+
+def test_uneven_times_are_kept_step_by_step(tmp_path):
+    from manifill.io import read_series_values
+
+    times = np.array([0.0, 0.5, 1.5, 2.0, 4.0])
+    vals = np.column_stack([np.cos(V[IDX, 2] * t) for t in times])
+    reconstruct_series(V, F, IDX, vals, tmp_path / "u.func.gii", times=times, method="harmonic")
+    g = nib.load(tmp_path / "u.func.gii")
+    assert "TimeStep" not in g.meta and [float(d.meta["Time"]) for d in g.darrays] == times.tolist()
+    t, X = read_series_values(tmp_path / "u.func.gii")
+    assert np.array_equal(t, times) and X.shape == (len(V), 5)

@@ -60,7 +60,9 @@ def test_a_dataframe_to_the_vertices_with_the_gp_s_std():
     V = globe_mesh(8.0)[0]
     assert out["ozone"].dims == ("vertex",) and out["ozone_std"].shape == (len(V),)
     assert np.allclose(out.lon.values, xyz_to_lonlat(V)[0])
-    assert float(out["ozone_std"].min()) >= 0 and float(out["ozone_std"].max()) > 0
+    r = manifill.reconstruct(V, globe_mesh(8.0)[1], lonlat_to_xyz(LON, LAT), df["ozone"].to_numpy(), method="gp",
+                             solver="direct")
+    assert np.allclose(out["ozone_std"].values, r.std, atol=1e-9) and np.allclose(out["ozone"].values, r.values)
 
 
 def test_the_grid_is_as_accurate_as_the_vertices():
@@ -102,3 +104,30 @@ def test_missing_observations_leave_a_station_out_of_those_steps():
     assert np.allclose(da.isel(time=1).values, want, atol=1e-10)
     full = manifill.reconstruct(V, F, P, vals[:, 0], method="biharmonic", solver="direct").values
     assert np.allclose(da.isel(time=0).values, full, atol=1e-10)
+
+
+def test_times_grids_radii_and_crowded_stations():
+    """The time coordinate keeps its name and attributes; grid coordinates are exact multiples and a spacing that
+    does not divide 180 is refused; a sphere of Earth's radius works; 50 stations crowded in a 20 x 10 degree box
+    (more in a triangle than its corners hold apart) fall back to their nearest vertices."""
+    P = lonlat_to_xyz(LON, LAT)
+    t = xr.DataArray(np.array([0.0, 6.0]), dims="valid_time", attrs={"units": "hours since 2020-01-01",
+                                                                     "standard_name": "time"})
+    ds = xr.Dataset({"v": (("station", "valid_time"), np.column_stack([field(P), field(P, 1)]))},
+                    coords={"lon": ("station", LON), "lat": ("station", LAT), "valid_time": t})
+    da = reconstruct_globe(ds, var="v", time="valid_time", grid=7.5)
+    assert da.dims[0] == "valid_time" and da.valid_time.attrs["units"] == "hours since 2020-01-01"
+    fine = reconstruct_globe(ds.isel(valid_time=[0]), var="v", time="valid_time", grid=0.25, mesh=globe_mesh(8.0))
+    assert 10.25 in fine.lon.values and fine.lat.values[-1] == 90.0 and fine.sizes["lon"] == 1440
+    with pytest.raises(OptionError, match="does not divide 180"):
+        reconstruct_globe(ds, var="v", time="valid_time", grid=7.0)
+    V, F = globe_mesh(8.0)
+    earth = reconstruct_globe(ds.isel(valid_time=[0]), var="v", time="valid_time", grid=7.5, mesh=(V * 6371.0, F))
+    unit = reconstruct_globe(ds.isel(valid_time=[0]), var="v", time="valid_time", grid=7.5, mesh=(V, F))
+    assert np.allclose(earth.values, unit.values, atol=1e-9)
+    rng = np.random.default_rng(1)
+    lon = np.r_[LON, rng.uniform(0, 20, 50)]
+    lat = np.r_[LAT, rng.uniform(45, 55, 50)]
+    crowded = pd.DataFrame({"lon": lon, "lat": lat, "v": field(lonlat_to_xyz(lon, lat))})
+    out = reconstruct_globe(crowded, grid=5.0, smoothing=1e-6)
+    assert np.isfinite(out.values).all()

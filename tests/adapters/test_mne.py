@@ -86,11 +86,32 @@ def test_to_surface_is_exact_at_the_channels():
     assert np.allclose(r.at(on), data, atol=1e-9)
 
 
+def test_epochs_from_a_file_other_channels_and_nothing_to_fill(tmp_path):
+    """Epochs not loaded are loaded into the copy; an EOG channel and its bad mark are left alone; an instance with
+    no bad EEG channel comes back unchanged."""
+    info, on = on_scalp_info("biosemi32")
+    eog = mne.create_info(["EOG1"], 500.0, "eog")
+    raw = mne.io.RawArray(np.random.default_rng(2).normal(size=(32, 2000)) * 1e-6, info)
+    raw.add_channels([mne.io.RawArray(np.zeros((1, 2000)), eog)])
+    raw.save(tmp_path / "r_raw.fif")
+    back = mne.io.read_raw_fif(tmp_path / "r_raw.fif", preload=False)
+    back.info["bads"] = ["C3", "EOG1"]
+    epochs = mne.Epochs(back, np.array([[200, 0, 1], [900, 0, 1]]), tmin=0, tmax=0.2, baseline=None, preload=False)
+    filled = interpolate_bads(epochs)
+    assert filled.info["bads"] == ["EOG1"] and filled.get_data().shape == (2, 33, 101)
+    good = [n for n in info["ch_names"] if n != "C3"]
+    m = ScalpMap(filled.info, good, ["C3"])
+    data = epochs.get_data()
+    gi = [epochs.ch_names.index(n) for n in good]
+    assert np.allclose(filled.get_data()[:, epochs.ch_names.index("C3")], np.einsum("k,ekt->et", m.B[0], data[:, gi]))
+    clean = mne.EvokedArray(np.ones((32, 3)), info)
+    same = interpolate_bads(clean)
+    assert same is not clean and np.array_equal(same.data, clean.data)
+
+
 def test_what_cannot_be_filled_is_one_line():
     info, _ = on_scalp_info("biosemi32")
     ev = mne.EvokedArray(np.zeros((32, 3)), info)
-    with pytest.raises(OptionError, match="names no EEG channel"):
-        interpolate_bads(ev)
     bare = mne.EvokedArray(np.zeros((32, 3)), mne.create_info(info["ch_names"], 500.0, "eeg"))
     bare.info["bads"] = ["Fp1"]
     with pytest.raises(OptionError, match="no position.*set a montage"):

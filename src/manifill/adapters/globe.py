@@ -13,6 +13,7 @@ regular grid (``grid=1.0``: every degree), with CF attributes (``latitude``/``lo
 import math
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import OptionError, SampleError
 from ..mesh.shapes import icosphere
@@ -73,7 +74,7 @@ def _stations(data, var, lon, lat, station, time):
         extra = [d for d in da.dims if d not in (station, time)]
         if extra:
             raise OptionError(f"{names[0]} has dimensions {extra} besides {station!r} and {time!r}; select them away")
-        times = da[time].values if time in da.dims else None
+        times = da[time] if time in da.dims else None  # the coordinate itself: its name, attrs and encoding
         values = da.transpose(station, *([time] if times is not None else [])).values
         lons, lats = data[lon].values, data[lat].values
         return lons, lats, values.reshape(len(lons), -1), times, str(names[0]), dict(da.attrs)
@@ -83,10 +84,13 @@ def _stations(data, var, lon, lat, station, time):
         if c not in data.columns:
             raise OptionError(f"the DataFrame has no column {c!r}; pass lon= and lat= its longitude and latitude "
                               f"columns (degrees)")
-    cols = [c for c in data.columns if c not in (lon, lat, station)] if var is None else [var]
+    numeric = [c for c in data.columns if c not in (lon, lat, station) and np.issubdtype(data[c].dtype, np.number)]
+    cols = numeric if var is None else [var]
+    if not cols:
+        raise OptionError("the DataFrame has no numeric value column besides lon and lat; add one, or pass var=")
     values = data[cols].to_numpy(dtype=np.float64)
-    return data[lon].to_numpy(float), data[lat].to_numpy(float), values, None, "value" if len(cols) != 1 else str(
-        cols[0]), {}
+    name = str(cols[0]) if len(cols) == 1 else "value"
+    return data[lon].to_numpy(float), data[lat].to_numpy(float), values, None, name, {"fields": [str(c) for c in cols]}
 
 
 def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station", time="time", grid=1.0, mesh=None,
@@ -121,13 +125,19 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
     if bad.size:
         raise SampleError(f"station {int(bad[0])} has longitude {lons[bad[0]]!r} and latitude {lats[bad[0]]!r}; pass "
                           f"finite degrees with latitudes in [-90, 90]")
+    if grid is not None and not (isinstance(grid, (int, float)) and grid > 0
+                                 and abs(180.0 / grid - round(180.0 / grid)) < 1e-9):
+        raise OptionError(f"grid={grid!r} degrees does not divide 180; pass a spacing that does (1, 0.5, 0.25, 2.5, ...)")
     V, F = globe_mesh(grid if grid is not None else 1.0) if mesh is None else mesh
     V = np.asarray(V, dtype=np.float64)
-    P = lonlat_to_xyz(lons, lats) * float(np.median(np.linalg.norm(V, axis=1)))
+    R = float(np.median(np.linalg.norm(V, axis=1)))
+    P = lonlat_to_xyz(lons, lats) * R
     options.setdefault("solver", "direct")  # one factorisation for every time step (AMG would iterate per step)
     X, S = _fields(V, F, P, values, method, std, options)
-    dims_t = ["time"] if times is not None else ([] if X.shape[1] == 1 else ["field"])
-    coords_t = {"time": times} if times is not None else ({} if X.shape[1] == 1 else {"field": np.arange(X.shape[1])})
+    fields = attrs.pop("fields", None)
+    dims_t = [times.name] if times is not None else ([] if X.shape[1] == 1 else ["field"])
+    coords_t = {times.name: times} if times is not None else ({} if X.shape[1] == 1 else {"field": fields or list(
+        range(X.shape[1]))})
     if grid is None:
         vlon, vlat = xyz_to_lonlat(V)
         coords = {"lon": ("vertex", vlon, _LON), "lat": ("vertex", vlat, _LAT), **coords_t}
@@ -135,11 +145,12 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
         if S is not None:
             out[name + "_std"] = (dims_t + ["vertex"], S.T.reshape(*([S.shape[1]] if dims_t else []), len(V)))
     else:
-        glat = np.linspace(-90.0, 90.0, int(round(180.0 / grid)) + 1)
-        glon = np.arange(-180.0, 180.0 - 1e-9, grid)
+        steps = int(round(180.0 / grid))
+        glat = np.round(-90.0 + grid * np.arange(steps + 1), 10)  # exact multiples: ERA5-style grids align
+        glon = np.round(-180.0 + grid * np.arange(2 * steps), 10)
         Lo, La = np.meshgrid(glon, glat)
-        Q = lonlat_to_xyz(Lo.ravel(), La.ravel()) * float(np.median(np.linalg.norm(V, axis=1)))
-        loc = locate_points(V, F, Q, max_distance=0.1)  # linear on the sphere's faces, located once for all steps
+        Q = lonlat_to_xyz(Lo.ravel(), La.ravel()) * R
+        loc = locate_points(V, F, Q, max_distance=0.1 * R)  # linear on the sphere's faces, located once for all steps
         G = np.einsum("qc,qct->qt", loc.bary, X[loc.corners])
         GS = None if S is None else np.einsum("qc,qct->qt", loc.bary, S[loc.corners])
         shape = (len(glat), len(glon))
@@ -154,7 +165,8 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
                                                                        else c for k, c in coords.items()})
     ds[name].attrs.update(attrs)
     ds[name].attrs.setdefault("long_name", name)
-    ds.attrs.update({"Conventions": "CF-1.8", "source": f"manifill {method} from {len(lons)} stations",
+    made = f"manifill {method} from {len(lons)} stations"
+    ds.attrs.update({"Conventions": "CF-1.8", "source": f"{attrs['source']}; {made}" if "source" in attrs else made,
                      "history": f"reconstructed on a sphere of {len(V):,} vertices"})
     return ds if std else ds[name].assign_attrs(Conventions="CF-1.8", source=ds.attrs["source"],
                                                 history=ds.attrs["history"])
@@ -184,13 +196,24 @@ def _fields(V, F, P, values, method, std, options):
         cols = np.flatnonzero(np.ravel(which) == g)
         if rows.sum() < 3:
             continue  # too few stations reporting: left NaN
-        rec = Reconstructor(V, F, P[rows], method=method, fields=cols.size, uncertainty=True if std else None,
-                            **options)
-        r = rec.apply(values[np.ix_(rows, cols)])
+        options = {**options, "uncertainty": True if std else options.get("uncertainty")}
+        r = _reconstruct(V, F, P[rows], values[np.ix_(rows, cols)], method, options)
         X[:, cols] = np.asarray(r.values).reshape(len(V), -1)
         if std:
             S[:, cols] = np.asarray(r.std).reshape(len(V), -1)
     return X, S
+
+
+def _reconstruct(V, F, P, vals, method, options):
+    """Stations at their positions; where they crowd (more in a triangle than its corners can hold apart), at their
+    nearest vertices, several on one vertex averaged."""
+    try:
+        return Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options).apply(vals)
+    except SampleError as exc:
+        if "not independent" not in str(exc):
+            raise
+    return Reconstructor(V, F, cKDTree(V).query(P)[1], method=method, fields=vals.shape[1],
+                         **{"duplicates": "mean", **options}).apply(vals)
 
 
 _LAT = {"standard_name": "latitude", "long_name": "latitude", "units": "degrees_north", "axis": "Y"}

@@ -177,22 +177,23 @@ def _eeg_bads(inst):
 
 
 def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic", **options):
-    """A copy of ``inst`` (``Raw``, ``Epochs`` or ``Evoked``, data loaded) with its bad EEG channels filled.
+    """A copy of ``inst`` (``Raw``, ``Epochs`` or ``Evoked``) with its bad EEG channels filled.
 
     The map is built once from the good channels' positions (:class:`ScalpMap`) and applied to every sample of
-    every epoch. ``reset_bads`` empties ``info['bads']`` of the channels filled, as MNE's ``interpolate_bads`` does.
+    every epoch; data not loaded are loaded into the copy. ``reset_bads`` takes the channels filled out of
+    ``info['bads']`` (other bads, EOG or MEG, stay). With no bad EEG channel the copy comes back unchanged.
 
     Raises
     ------
     OptionError
-        No bad EEG channel, data not loaded, MEG channels only, channels without positions.
+        Channels without positions, a method that is not linear.
     """
     bads, good = _eeg_bads(inst)
-    if not bads:
-        raise OptionError("info['bads'] names no EEG channel; mark the bad channels first (inst.info['bads'] = [...])")
-    if isinstance(inst, mne.io.BaseRaw) and not inst.preload:
-        raise OptionError("the Raw's data are not loaded; load them (raw.load_data()) before filling channels")
     out = inst.copy()
+    if not bads:  # nothing to fill: the copy as it is (as MNE's own does, which warns)
+        return out
+    if not getattr(out, "preload", True):
+        out.load_data()  # the copy's data read from its file
     m = ScalpMap(out.info, good, bads, surface=surface, method=method, **options)
     names = out.info["ch_names"]
     gi, bi = [names.index(n) for n in good], [names.index(n) for n in bads]

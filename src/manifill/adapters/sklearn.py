@@ -12,6 +12,7 @@ Needs the ``[sklearn]`` extra (scikit-learn).
 """
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import OptionError, SampleError
 from ..surface.reconstructor import Reconstructor
@@ -73,7 +74,7 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
         """``X`` as vertex indices ``(k,)`` or positions ``(k, 3)``, checked against the surface."""
         if self.V is None:
             raise OptionError("SurfaceRegressor needs the surface: SurfaceRegressor(V, F) (F None for a point cloud)")
-        if hasattr(X, "toarray") or np.iscomplexobj(X):
+        if hasattr(X, "toarray") or np.iscomplexobj(np.asarray(X)):
             raise SampleError("X is sparse or complex; pass a dense real (k, 1) array of vertex indices or (k, 3) "
                               "array of positions")
         try:
@@ -101,8 +102,13 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
             raise SampleError(f"y has shape {vals.shape} for {len(where)} samples; pass (k,) or (k, p) values")
         options = {key: getattr(self, key) for key in ("method", "smoothing", "bounds", "weights", "gp",
                                                          "uncertainty", "neighbours", "barriers")}
-        rec = Reconstructor(self.V, self.F, where, **options, duplicates="mean")
-        self.result_ = rec.apply(vals)
+        try:
+            self.result_ = Reconstructor(self.V, self.F, where, **options, duplicates="mean").apply(vals)
+        except SampleError as exc:  # more positions in a triangle than its corners hold apart: nearest vertices
+            if where.ndim == 1 or "not independent" not in str(exc):
+                raise
+            near = cKDTree(np.asarray(self.V, dtype=np.float64)).query(where)[1]
+            self.result_ = Reconstructor(self.V, self.F, near, **options, duplicates="mean").apply(vals)
         self.n_features_in_ = 1 if where.ndim == 1 else 3
         return self
 

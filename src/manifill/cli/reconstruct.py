@@ -70,8 +70,8 @@ def run(args):
             raise OptionError(f"--gradient writes one result's gradient, and -o {out.name} writes a time series; "
                               f"leave --gradient out, or write one result (-o OUT.vtu, .vtp, .ply or .csv)")
         if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
-            raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5 or .npy "
-                              f"(-o OUT.xdmf)")
+            raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5, .func.gii "
+                              f"or .npy (-o OUT.xdmf)")
         return run_series(args, out, {"options": options.replace(check=None)}, exact)
     for flag in ("workers", "scheduler"):
         if getattr(args, flag, None) is not None:

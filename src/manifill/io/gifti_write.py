@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import WriteError
 from .files import atomic_path
 
-__all__ = ["write_gifti_data", "GiftiSeries"]
+__all__ = ["write_gifti_data", "read_gifti_times", "GiftiSeries"]
 
 
 def _nibabel():
@@ -56,7 +56,7 @@ def write_gifti_data(path, values, *, names=None, times=None):
     names = [f"value{j}" if p > 1 else "value" for j in range(p)] if names is None else [str(n) for n in names]
     if len(names) != p:
         raise WriteError(f"{path.name}: {len(names)} names for {p} columns; pass one name per column")
-    meta = {}
+    meta, t = {}, None
     intent = "NIFTI_INTENT_NONE"
     if times is not None:
         t = np.asarray(times, dtype=np.float64).ravel()
@@ -66,9 +66,12 @@ def write_gifti_data(path, values, *, names=None, times=None):
         steps = np.diff(t)
         if steps.size and np.allclose(steps, steps[0], rtol=1e-9):
             meta["TimeStep"] = f"{steps[0] * 1000.0:.9g}"  # milliseconds, as Workbench writes it
+    # each step's own time in its array's metadata (``Time``, as given: seconds for ``TimeStep``'s milliseconds)
     arrays = [nib.gifti.GiftiDataArray(np.ascontiguousarray(X[:, j], dtype=np.float32), intent=intent,
                                        datatype="NIFTI_TYPE_FLOAT32",
-                                       meta=nib.gifti.GiftiMetaData({"Name": names[j]})) for j in range(p)]
+                                       meta=nib.gifti.GiftiMetaData({"Name": names[j]} if t is None else
+                                                                    {"Name": names[j], "Time": repr(float(t[j]))}))
+              for j in range(p)]
     image = nib.gifti.GiftiImage(darrays=arrays, meta=nib.gifti.GiftiMetaData(meta))
     if not path.parent.is_dir():
         raise WriteError(f"folder {path.parent} does not exist; create it first or choose another path")
@@ -78,6 +81,16 @@ def write_gifti_data(path, values, *, names=None, times=None):
         except OSError as exc:
             raise WriteError(f"{path.name}: could not write ({exc.strerror or exc}); check the path and free space") \
                 from None
+
+
+def read_gifti_times(path):
+    """The steps' times of a GIfTI series :func:`write_gifti_data` wrote (``Time`` metadata), or None."""
+    nib = _nibabel()
+    try:
+        times = [d.meta.get("Time") for d in nib.load(str(path)).darrays]
+        return None if not times or None in times else np.array([float(x) for x in times])
+    except (ValueError, TypeError, OSError):
+        return None
 
 
 class GiftiSeries:

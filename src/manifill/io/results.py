@@ -38,7 +38,7 @@ def save_result(result, path, names):
             raise OptionError(f"a tetrahedral result is written as {', '.join(TET_FORMATS)}, not "
                               f"{ext or 'no extension'}; name the file e.g. out.vtu")
         write_tets(path, result.TV, result.TT, data)
-    elif ext == ".csv":  # the fields and their stds as columns
+    elif ext in (".csv", ".gii"):  # the fields and their stds as columns (GIfTI: as named data arrays)
         columns = [key for key in data if key not in RESERVED_NAMES]
         write_values(path, value_columns(data, columns), names=columns)
     elif ext in VALUE_FORMATS:

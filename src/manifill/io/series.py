@@ -48,6 +48,7 @@ from ..errors import ReadError, SampleError, WriteError
 from ..surface.samples import Samples
 from .files import check_input_file, reading, suffix
 from .meshio_files import meshio_read
+from .gifti_write import read_gifti_times
 from .neuro import read_vertex_data
 from .samples import SAMPLE_FORMATS, SampleTable, load_npy, load_npz, read_sample_table, samples_from_table
 
@@ -95,7 +96,7 @@ SERIES_FORMATS = {
     ".npy": SeriesFormat("NumPy array", False, False, True),
     ".h5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
     ".hdf5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
-    ".gii": SeriesFormat("GIfTI time series", False, False, False, "neuro", ("nibabel", "nilearn", "Workbench"),
+    ".gii": SeriesFormat("GIfTI time series", True, False, False, "neuro", ("nibabel", "nilearn", "Workbench"),
                          exact=False),
 }
 
@@ -385,9 +386,10 @@ def read_series_values(path, *, name=None):
         return np.arange(X.shape[1], dtype=np.float64), X
     if ext in (".h5", ".hdf5"):
         return _read_h5(path, name)
-    if ext == ".gii":  # one data array per step (float32), the step numbers as times
+    if ext == ".gii":  # one data array per step (float32), each with its time (or the step numbers)
         X, _ = read_vertex_data(path, None)
-        return np.arange(X.shape[1], dtype=np.float64), X
+        times = read_gifti_times(path)
+        return (np.arange(X.shape[1], dtype=np.float64) if times is None else times), X
     steps = _read_xdmf(path, name) if ext == ".xdmf" else _read_pvd(path, name)
     if not steps:
         raise ReadError(f"{path.name}: no time steps; check the file")

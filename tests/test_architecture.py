@@ -23,7 +23,7 @@ MAX_PARAMETERS = 12
 #: Lower layers never import higher ones, at module level or inside a function. ``top`` is the
 #: package's ``__init__.py`` (the flat public API, which re-exports every layer) and ``__main__.py``:
 #: no module imports them.
-LAYERS = ["base", "mesh", "linalg", "surface", "solid", "io", "viz", "demo", "cli", "cluster", "adapters", "top"]
+LAYERS = ["base", "mesh", "linalg", "surface", "solid", "io", "viz", "demo", "adapters", "cli", "cluster", "top"]
 BASE = {"errors", "tolerances", "validate", "memory", "progress", "results", "report", "version"}
 TOP = {"", "__main__"}
 
@@ -50,6 +50,8 @@ LAZY_IMPORTS = {
     "meshio": "a dependency, but ~0.2 s to import; only meshio's formats and objects need it",
     "tqdm": "a dependency, but it pulls in more than a quiet run needs; only a shown step bar needs it",
     "pyamg": "a dependency, but its __init__ loads all of pyamg (~0.1 s); only AMG solves and a graph search need it",
+    "xarray": "the [xarray] extra; the command line loads the globe adapter, which needs xarray only when run",
+    "pandas": "the [xarray] extra (a CSV of stations read by `manifill globe`)",
 }
 
 #: Functions allowed more than MAX_PARAMETERS parameters: "path/from/src/manifill.py:qualname" -> reason.

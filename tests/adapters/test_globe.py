@@ -131,3 +131,22 @@ def test_times_grids_radii_and_crowded_stations():
     crowded = pd.DataFrame({"lon": lon, "lat": lat, "v": field(lonlat_to_xyz(lon, lat))})
     out = reconstruct_globe(crowded, grid=5.0, smoothing=1e-6)
     assert np.isfinite(out.values).all()
+
+
+def test_the_command_line_writes_a_cf_netcdf(tmp_path, capsys):
+    from conftest import assert_usage_error, files, run
+
+    pytest.importorskip("netCDF4", reason="the [xarray] extra (netCDF4) is not installed")
+    df = pd.DataFrame({"lon": LON, "lat": LAT, "name": [f"s{i}" for i in range(K)],
+                       "temp": field(lonlat_to_xyz(LON, LAT))})
+    df.to_csv(tmp_path / "st.csv", index=False)
+    code, out, err = run(capsys, "globe", tmp_path / "st.csv", "-o", tmp_path / "t.nc", "--grid", "5")
+    assert code == 0, err
+    back = xr.open_dataset(tmp_path / "t.nc")
+    want = reconstruct_globe(df, var="temp", grid=5.0)
+    assert back.attrs["Conventions"] == "CF-1.8" and np.allclose(back["temp"].values, want.values)
+    before = files(tmp_path)
+    code, out, err = run(capsys, "globe", tmp_path / "st.csv", "-o", tmp_path / "t.txt")
+    assert "netCDF" in assert_usage_error(code, out, err) and files(tmp_path) == before
+    code, out, err = run(capsys, "globe", tmp_path / "st.csv", "-o", tmp_path / "u.nc", "--grid", "7")
+    assert "does not divide 180" in assert_usage_error(code, out, err) and files(tmp_path) == before

@@ -11,21 +11,29 @@ regular grid (``grid=1.0``: every degree), with CF attributes (``latitude``/``lo
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import OptionError, SampleError
+from ..errors import OptionError, ReadError, SampleError, WriteError
+from ..io.files import atomic_path
 from ..mesh.shapes import icosphere
 from ..surface.locate import locate_points
 from ..surface.reconstructor import Reconstructor
 
-try:
-    import xarray as xr
-except ImportError:  # the extra, named when used
-    raise ImportError("manifill.adapters.globe needs xarray: pip install 'manifill[xarray]'") from None
 
-__all__ = ["globe_mesh", "lonlat_to_xyz", "xyz_to_lonlat", "reconstruct_globe", "write_netcdf", "EDGE_DEGREES"]
+
+def _xarray():
+    """xarray, or the extra named (imported when used: the command line loads this module)."""
+    try:
+        import xarray
+    except ImportError:
+        raise ImportError("the globe's fields need xarray: pip install 'manifill[xarray]'") from None
+    return xarray
+
+__all__ = ["globe_mesh", "lonlat_to_xyz", "xyz_to_lonlat", "reconstruct_globe", "write_netcdf", "globe_file",
+           "EDGE_DEGREES"]
 
 #: The icosphere of level k has edges of about this many degrees over 2^k.
 EDGE_DEGREES = 63.43
@@ -84,7 +92,7 @@ def _stations(data, var, lon, lat, station, time):
         if c not in data.columns:
             raise OptionError(f"the DataFrame has no column {c!r}; pass lon= and lat= its longitude and latitude "
                               f"columns (degrees)")
-    numeric = [c for c in data.columns if c not in (lon, lat, station) and np.issubdtype(data[c].dtype, np.number)]
+    numeric = [c for c in data.columns if c not in (lon, lat, station) and getattr(data[c].dtype, "kind", "O") in "iuf"]
     cols = numeric if var is None else [var]
     if not cols:
         raise OptionError("the DataFrame has no numeric value column besides lon and lat; add one, or pass var=")
@@ -120,6 +128,7 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
     -------
     xarray.DataArray (or Dataset with ``std``)
     """
+    xr = _xarray()
     lons, lats, values, times, name, attrs = _stations(data, var, lon, lat, station, time)
     bad = np.flatnonzero(~(np.isfinite(lons) & np.isfinite(lats) & (np.abs(lats) <= 90)))
     if bad.size:
@@ -181,7 +190,8 @@ def write_netcdf(field, path):
     ds = ds.assign_attrs(glob)
     for v in ds.data_vars:
         ds[v].attrs = {k: a for k, a in ds[v].attrs.items() if k not in glob}
-    ds.to_netcdf(path)
+    with atomic_path(path) as tmp:  # nothing half-written is left at path
+        ds.to_netcdf(tmp)
     return path
 
 
@@ -214,6 +224,36 @@ def _reconstruct(V, F, P, vals, method, options):
             raise
     return Reconstructor(V, F, cKDTree(V).query(P)[1], method=method, fields=vals.shape[1],
                          **{"duplicates": "mean", **options}).apply(vals)
+
+
+def globe_file(stations, out, *, var=None, grid=1.0, method="biharmonic", **options):
+    """``manifill globe``: a CSV of stations (``lon``, ``lat``, value columns) or a netCDF of them (a ``station``
+    dimension) to a netCDF on a regular grid; returns a one-line summary.
+
+    Raises
+    ------
+    ReadError, WriteError, OptionError, SampleError
+        A file that cannot be read, an output that is not ``.nc``, stations or options refused.
+    """
+    xr = _xarray()
+    src, out = Path(stations), Path(out)
+    if out.suffix.lower() != ".nc":
+        raise WriteError(f"{out.name}: the globe's field is written as netCDF; name the output OUT.nc")
+    if not src.is_file():
+        raise ReadError(f"{src}: no such file; pass a CSV of stations (lon, lat, values) or a netCDF of them")
+    try:
+        if src.suffix.lower() == ".csv":
+            import pandas
+
+            data = pandas.read_csv(src)
+        else:
+            data = xr.open_dataset(src)
+    except (ValueError, OSError, UnicodeDecodeError) as exc:
+        raise ReadError(f"{src.name}: could not be read as stations ({str(exc).splitlines()[0][:120]}); pass a CSV "
+                        f"with lon and lat columns or a netCDF with a station dimension") from None
+    field = reconstruct_globe(data, var=var, grid=grid, method=method, **options)
+    write_netcdf(field, out)
+    return f"wrote {out.name}: {field.name} on {' x '.join(f'{d} {n}' for d, n in field.sizes.items())}"
 
 
 _LAT = {"standard_name": "latitude", "long_name": "latitude", "units": "degrees_north", "axis": "Y"}

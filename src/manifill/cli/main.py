@@ -24,14 +24,14 @@ import threading
 
 from ..version import __version__
 from ..errors import ManifillError
-from . import check, cv, demo, harmonic, info, reconstruct, volume
+from . import check, cv, demo, globe, harmonic, info, reconstruct, volume
 from ..io.files import remove_active_temporaries
 from .common import err
 
 __all__ = ["main", "build_parser", "add_command", "COMMANDS"]
 
 #: one module per subcommand, in the order of the help; a layer above adds its own (:func:`add_command`)
-COMMANDS = [info, harmonic, check, reconstruct, cv, volume, demo]
+COMMANDS = [info, harmonic, check, reconstruct, cv, volume, globe, demo]
 
 
 def add_command(module, before=None):

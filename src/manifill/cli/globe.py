@@ -1,0 +1,31 @@
+"""``manifill globe STATIONS -o OUT.nc``: stations by longitude and latitude to a CF netCDF on a regular grid."""
+
+from ..adapters.globe import globe_file
+from .common import smoothing_arg
+from .options import output_args
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub):
+    """Register ``manifill globe``."""
+    s = sub.add_parser("globe", help="stations by lon/lat to a CF netCDF on a regular lon/lat grid",
+                       description="Reconstruct a field on the sphere from stations given by longitude and latitude "
+                                   "(a CSV with lon, lat and value columns, or a netCDF with a station dimension and "
+                                   "optionally time), with distances along the sphere, and write it on a regular "
+                                   "grid as a CF-annotated netCDF (needs the [xarray] extra).")
+    s.add_argument("stations", help="a CSV (lon, lat, value columns) or a netCDF of stations")
+    s.add_argument("--var", default=None, help="the variable (netCDF) or value column (CSV); default: all")
+    s.add_argument("--grid", type=float, default=1.0, help="the grid's spacing in degrees (default: 1)")
+    s.add_argument("--method", default="biharmonic", help="any reconstruct method (default: biharmonic)")
+    s.add_argument("--smoothing", default=None, help="a number or 'auto' (noisy stations)")
+    s.add_argument("-o", "--output", required=True, metavar="OUT.nc", help="the netCDF to write")
+    output_args(s)
+    s.set_defaults(func=run)
+
+
+def run(args):
+    """Write the netCDF and say what it holds."""
+    options = {} if args.smoothing is None else {"smoothing": smoothing_arg(args.smoothing)}
+    print(globe_file(args.stations, args.output, var=args.var, grid=args.grid, method=args.method, **options))
+    return 0

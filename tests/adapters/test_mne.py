@@ -104,6 +104,8 @@ def test_epochs_from_a_file_other_channels_and_nothing_to_fill(tmp_path):
     data = epochs.get_data()
     gi = [epochs.ch_names.index(n) for n in good]
     assert np.allclose(filled.get_data()[:, epochs.ch_names.index("C3")], np.einsum("k,ekt->et", m.B[0], data[:, gi]))
+    again = interpolate_bads(epochs)  # the same cap and bads: the map kept, the same numbers
+    assert np.array_equal(again.get_data(), filled.get_data())
     clean = mne.EvokedArray(np.ones((32, 3)), info)
     same = interpolate_bads(clean)
     assert same is not clean and np.array_equal(same.data, clean.data)

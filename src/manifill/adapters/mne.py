@@ -30,7 +30,7 @@ try:
 except ImportError:  # the extra, named when used
     raise ImportError("manifill.adapters.mne needs MNE-Python: pip install 'manifill[mne]'") from None
 
-__all__ = ["head_surface", "electrodes", "ScalpMap", "interpolate_bads", "to_surface", "MAX_DISTANCE"]
+__all__ = ["head_surface", "electrodes", "ScalpMap", "interpolate_bads", "to_surface", "forget_maps", "MAX_DISTANCE"]
 
 #: How far (metres) an electrode may sit from the scalp surface and still be located on it.
 MAX_DISTANCE = 0.03
@@ -169,6 +169,30 @@ class ScalpMap:
         return np.tensordot(self.B, X, axes=(1, 0))
 
 
+#: The scalp maps built lately, by what makes them (a montage's good and bad channels' positions, the surface, the
+#: method and options): recordings with the same cap and the same bads reuse one.
+_MAPS = {}
+MAPS_KEPT = 8
+
+
+def _scalp_map(info, good, bads, surface, method, options):
+    if surface is not None and not (isinstance(surface, tuple) and len(surface) == 2):
+        return ScalpMap(info, good, bads, surface=surface, method=method, **options)  # a file or dict: no key
+    where = [electrodes(info, names)[1].tobytes() for names in (good, bads)]
+    mesh = None if surface is None else tuple(np.ascontiguousarray(a).tobytes() for a in surface)
+    key = (tuple(good), tuple(bads), *where, mesh, method, repr(sorted(options.items())))
+    if key not in _MAPS:
+        if len(_MAPS) >= MAPS_KEPT:
+            _MAPS.pop(next(iter(_MAPS)))
+        _MAPS[key] = ScalpMap(info, good, bads, surface=surface, method=method, **options)
+    return _MAPS[key]
+
+
+def forget_maps():
+    """Drop the scalp maps kept between calls (the next :func:`interpolate_bads` builds its map again)."""
+    _MAPS.clear()
+
+
 def _eeg_bads(inst):
     eeg = set(inst.info["ch_names"][i] for i in mne.pick_types(inst.info, meg=False, eeg=True, exclude=[]))
     bads = [b for b in inst.info["bads"] if b in eeg]
@@ -180,7 +204,8 @@ def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic"
     """A copy of ``inst`` (``Raw``, ``Epochs`` or ``Evoked``) with its bad EEG channels filled.
 
     The map is built once from the good channels' positions (:class:`ScalpMap`) and applied to every sample of
-    every epoch; data not loaded are loaded into the copy. ``reset_bads`` takes the channels filled out of
+    every epoch (and kept for the next recording with the same cap, bads and method); data not loaded are loaded
+    into the copy. ``reset_bads`` takes the channels filled out of
     ``info['bads']`` (other bads, EOG or MEG, stay). With no bad EEG channel the copy comes back unchanged.
 
     Raises
@@ -194,7 +219,7 @@ def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic"
         return out
     if not getattr(out, "preload", True):
         out.load_data()  # the copy's data read from its file
-    m = ScalpMap(out.info, good, bads, surface=surface, method=method, **options)
+    m = _scalp_map(out.info, good, bads, surface, method, options)
     names = out.info["ch_names"]
     gi, bi = [names.index(n) for n in good], [names.index(n) for n in bads]
     data = out.data if isinstance(out, mne.Evoked) else out._data  # noqa: SLF001 (MNE fills channels so too)

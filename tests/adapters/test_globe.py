@@ -150,3 +150,10 @@ def test_the_command_line_writes_a_cf_netcdf(tmp_path, capsys):
     assert "netCDF" in assert_usage_error(code, out, err) and files(tmp_path) == before
     code, out, err = run(capsys, "globe", tmp_path / "st.csv", "-o", tmp_path / "u.nc", "--grid", "7")
     assert "does not divide 180" in assert_usage_error(code, out, err) and files(tmp_path) == before
+
+
+def test_damaged_station_tables_are_one_line():
+    with pytest.raises(SampleError, match="not a number"):
+        reconstruct_globe(pd.DataFrame({"lon": ["1", "abc", "3"], "lat": [0.0, 1.0, 2.0], "v": [1.0, 2.0, 3.0]}))
+    with pytest.raises(SampleError, match="no step has three stations"):
+        reconstruct_globe(pd.DataFrame({"lon": [0.0, 10.0], "lat": [0.0, 5.0], "v": [1.0, np.nan]}))

@@ -96,9 +96,14 @@ def _stations(data, var, lon, lat, station, time):
     cols = numeric if var is None else [var]
     if not cols:
         raise OptionError("the DataFrame has no numeric value column besides lon and lat; add one, or pass var=")
-    values = data[cols].to_numpy(dtype=np.float64)
+    try:
+        values = data[cols].to_numpy(dtype=np.float64)
+        where = data[lon].to_numpy(float), data[lat].to_numpy(float)
+    except (TypeError, ValueError) as exc:
+        raise SampleError(f"the stations hold a value that is not a number ({exc}); fix the column or leave it "
+                          f"out (var=)") from None
     name = str(cols[0]) if len(cols) == 1 else "value"
-    return data[lon].to_numpy(float), data[lat].to_numpy(float), values, None, name, {"fields": [str(c) for c in cols]}
+    return (*where, values, None, name, {"fields": [str(c) for c in cols]})
 
 
 def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station", time="time", grid=1.0, mesh=None,
@@ -202,6 +207,9 @@ def _fields(V, F, P, values, method, std, options):
     X = np.full((len(V), values.shape[1]), np.nan)
     S = np.full_like(X, np.nan) if std else None
     patterns, which = np.unique(finite.T, axis=0, return_inverse=True)
+    if not any(rows.sum() >= 3 for rows in patterns):
+        raise SampleError(f"no step has three stations reporting (at most {int(finite.sum(axis=0).max())} of "
+                          f"{len(P)} have a value); a field needs at least three")
     for g, rows in enumerate(patterns):
         cols = np.flatnonzero(np.ravel(which) == g)
         if rows.sum() < 3:

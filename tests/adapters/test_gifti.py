@@ -56,6 +56,10 @@ def test_the_command_line_writes_gifti(tmp_path, capsys):
     g = nib.load(tmp_path / "o.func.gii")
     r = manifill.reconstruct(V, F, IDX, V[IDX, 0], method="biharmonic")
     assert g.darrays[0].meta["Name"] == "u" and np.allclose(g.darrays[0].data, r.values, atol=1e-6)
+    code, out, err = run(capsys, "reconstruct", tmp_path / "m.ply", tmp_path / "s.csv", "-o", tmp_path / "gp.func.gii",
+                         "--method", "gp")
+    assert code == 0, err
+    assert [d.meta["Name"] for d in nib.load(tmp_path / "gp.func.gii").darrays] == ["u", "u_std"]
     (tmp_path / "two.csv").write_text("vertex,a,b\n" + "".join(f"{i},1.0,2.0\n" for i in IDX))  # two fields
     code, out, err = run(capsys, "reconstruct", tmp_path / "m.ply", tmp_path / "two.csv", "-o", tmp_path / "t.gii")
     assert code == 0, err

@@ -123,7 +123,7 @@ def _write(args, out, V, F, X, S, data, added):
             write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
         print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
               f"the masks{' and the std' if added else ''} are not written)")
-    elif out.suffix.lower() == ".csv" and added:  # the std and trusted columns after the values
+    elif out.suffix.lower() in (".csv", ".gii") and added:  # the std and trusted columns (arrays) after the values
         columns = list(S.names) + list(added)
         write_values(out, value_columns(data, columns), names=columns)
     elif out.suffix.lower() in VALUE_FORMATS:

@@ -23,7 +23,8 @@ from ..tolerances import TOL
 from ..validate import check_option, unit_scale
 from .edges import EdgeIndex
 
-__all__ = ["DISTANCES", "mesh_graph", "offset_distances", "voronoi_pairs", "trace", "trace_paths"]
+__all__ = ["DISTANCES", "mesh_graph", "edge_graph", "graph_laplacian", "quantised_lengths", "offset_distances",
+           "voronoi_pairs", "trace", "trace_paths"]
 
 DISTANCES = ("hops", "length")
 
@@ -72,11 +73,38 @@ def mesh_graph(V, F, *, distance="length", index=None):
         for k in range(3):
             x = np.ascontiguousarray(Vn[:, k])
             w += (x[E[:, 0]] - x[E[:, 1]]) ** 2
-        w = np.sqrt(w)
-        mean = w.mean() if w.size else 1.0
-        q = TOL.graph_length_quantum
-        w = np.maximum(np.round(w / ((mean if mean > 0 else 1.0) * q)), 1.0) * q
+        w = quantised_lengths(np.sqrt(w))
     return index.matrix(w)
+
+
+def quantised_lengths(w):
+    """Edge lengths over their mean, in multiples of ``TOL.graph_length_quantum`` (at least one): equal paths on
+    regular meshes tie exactly, whatever round-off the positions carry.
+
+    Examples
+    --------
+    >>> quantised_lengths(np.array([1.0, 1.0 + 1e-12, 2.0])).tolist() == [0.75, 0.75, 1.5]
+    True
+    """
+    mean = w.mean() if w.size else 1.0
+    q = TOL.graph_length_quantum
+    return np.maximum(np.round(w / ((mean if mean > 0 else 1.0) * q)), 1.0) * q
+
+
+def edge_graph(n, E, w):
+    """The symmetric (n, n) graph of the pairs ``E`` (each once) with weights ``w`` (CSR, sorted)."""
+    A = sp.csr_array((np.concatenate([w, w]), (np.concatenate([E[:, 0], E[:, 1]]),
+                                              np.concatenate([E[:, 1], E[:, 0]]))), shape=(n, n))
+    A.sum_duplicates()
+    A.sort_indices()
+    return A
+
+
+def graph_laplacian(G):
+    """``D - G``, ``D`` the weighted degrees: the Laplacian of a graph (CSR, sorted)."""
+    L = sp.csr_array(sp.diags_array(np.asarray(G.sum(axis=1)).ravel()) - G)
+    L.sort_indices()
+    return L
 
 
 def offset_distances(G, sources, offsets):

@@ -28,6 +28,7 @@ from ..errors import MeshError
 from ..tolerances import TOL
 from ..validate.options import first_entries
 from ..validate.scale import unit_scale
+from .graph import edge_graph, graph_laplacian, quantised_lengths
 
 __all__ = ["NEIGHBOURS", "RAY", "Cloud", "cloud_neighbours"]
 
@@ -118,24 +119,13 @@ class Cloud:
         """The (n, n) symmetric graph on :attr:`E`: unit lengths (``'hops'``) or lengths over their mean."""
         E = self.E
         if distance == "hops":
-            w = np.ones(len(E))
-        else:
-            Pu = self.P / self.scale
-            w = np.linalg.norm(Pu[E[:, 0]] - Pu[E[:, 1]], axis=1)
-            q = TOL.graph_length_quantum  # lengths in multiples of a quantum of their mean: ties stay exact
-            w = np.maximum(np.round(w / (w.mean() * q)), 1.0) * q
-        G = sp.coo_array((np.concatenate([w, w]), (np.concatenate([E[:, 0], E[:, 1]]),
-                                                   np.concatenate([E[:, 1], E[:, 0]]))), shape=(self.n, self.n))
-        G = sp.csr_array(G)
-        G.sort_indices()
-        return G
+            return edge_graph(self.n, E, np.ones(len(E)))
+        Pu = self.P / self.scale
+        return edge_graph(self.n, E, quantised_lengths(np.linalg.norm(Pu[E[:, 0]] - Pu[E[:, 1]], axis=1)))
 
     def uniform_laplacian(self):
         """The graph Laplacian of :attr:`E` (unit weights)."""
-        G = self.graph("hops")
-        L = sp.csr_array(sp.diags_array(np.asarray(G.sum(axis=1)).ravel()) - G)
-        L.sort_indices()
-        return L
+        return graph_laplacian(self.graph("hops"))
 
     def laplacian(self, weights):
         """The stiffness for a weight name: the fans' cotangents, or the graph's ``uniform`` weights.
@@ -300,9 +290,7 @@ def _join_lone(L, M, nbr):
         return L, M
     n = len(M)
     A = sp.coo_array((np.ones(2 * lone.size), (np.repeat(lone, 2), nbr[lone, :2].ravel())), shape=(n, n)).tocsr()
-    A = sp.csr_array((A + A.T) > 0).astype(np.float64)
-    L = sp.csr_array(L - A + sp.diags_array(np.asarray(A.sum(axis=1)).ravel()))
-    L.sum_duplicates()
+    L = sp.csr_array(L + graph_laplacian(sp.csr_array((A + A.T) > 0).astype(np.float64)))
     L.sort_indices()
     M = M.copy()
     M[lone] = np.median(M[M > 0]) if np.any(M > 0) else 1.0
@@ -351,10 +339,7 @@ def _cotan(Pu, nbr, fan_a, fan_b, n):
     looked = sp.csr_array((np.ones(n * k), (np.repeat(np.arange(n), k), nbr.ravel())), shape=(n, n))
     both = sp.csr_array(looked.multiply(looked.T))
     W = sp.csr_array(w + w.T)
-    W = sp.csr_array(W - 0.5 * W.multiply(both))
-    L = sp.csr_array(sp.diags_array(np.asarray(W.sum(axis=1)).ravel()) - W)
-    L.sum_duplicates()
-    L.sort_indices()
+    L = graph_laplacian(sp.csr_array(W - 0.5 * W.multiply(both)))
     # Meyer's mixed area of each fan triangle at its point: the circumcentric part where no angle is obtuse,
     # else half or a quarter of the triangle (the same for either diagonal of four points on a circle)
     la, lb = np.einsum("ij,ij->i", ea, ea), np.einsum("ij,ij->i", eb, eb)

@@ -14,11 +14,10 @@ A tetrahedral solid's D is its boundary triangles
 """
 
 import numpy as np
-import scipy.sparse as sp
 from scipy import ndimage
 
 from ..errors import SampleError
-from ..mesh.graph import DISTANCES
+from ..mesh.graph import DISTANCES, edge_graph, graph_laplacian
 from ..surface.surface import Surface
 from ..validate import as_mask, as_voxels, check_option, unit_scale
 from .voxels import as_origin, as_spacing, neighbour_offsets, shifted_views, voxel_centres
@@ -154,14 +153,11 @@ def digital_surface_graph(P, E, normals=None, *, distance="length"):
     n = len(P)
     Pu = np.asarray(P, dtype=np.float64) / unit_scale(P)  # a power of two: at 1e-300 the squares underflow
     length = np.linalg.norm(Pu[E[:, 0]] - Pu[E[:, 1]], axis=1)
-    G_hops = _graph(n, E, np.ones(len(E)))
-    G = G_hops if distance == "hops" else _graph(n, E, length / length.mean() if len(E) else length)
+    G_hops = edge_graph(n, E, np.ones(len(E)))
+    G = G_hops if distance == "hops" else edge_graph(n, E, length / length.mean() if len(E) else length)
 
     def laplacian(weights):
-        deg = np.asarray(G_hops.sum(axis=1)).ravel()
-        L = sp.csr_array(sp.diags_array(deg) - G_hops)
-        L.sort_indices()
-        return L
+        return graph_laplacian(G_hops)
 
     return Surface(P, G_hops, G, laplacian, normals=normals)
 
@@ -203,15 +199,6 @@ def surface_vertex_of_voxels(voxels, ijk, shape):
         raise SampleError(f"{int((where < 0).sum())} samples are not on boundary voxels of the mask (e.g. voxel {v}); "
                           f"place them on manifill.solid.boundary.boundary_voxels(mask)")
     return where
-
-
-def _graph(n, E, w):
-    """The symmetric (n, n) adjacency of the pairs ``E`` with weights ``w``."""
-    A = sp.csr_array((np.concatenate([w, w]), (np.concatenate([E[:, 0], E[:, 1]]),
-                                              np.concatenate([E[:, 1], E[:, 0]]))), shape=(n, n))
-    A.sum_duplicates()
-    A.sort_indices()
-    return A
 
 
 def surface_to_points(V, F, values, P):

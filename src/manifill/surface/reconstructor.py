@@ -154,8 +154,7 @@ class Reconstructor:
         self.options = o if weights is None else configure(o.replace(sample_weights=weights))  # checked once
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
-        self.surface = _surface(V, F, o)
-        self.surface.cut, self.surface.barrier_faces = self._cut, bakka
+        self.surface = _surface(V, F, o, self._cut, bakka)
         self.seconds["graph"] = time.perf_counter() - t
         self.fields = math.inf if fields is None else int(fields)
         self.linear, self._why = self._linearity()
@@ -202,8 +201,7 @@ class Reconstructor:
         """Rebuild the surface; the solvers wait for the first :meth:`apply` (``prepared.cached``)."""
         V, F = state["surface"]
         self.__dict__.update(state)
-        self.surface = _surface(V, F, self.options)
-        self.surface.cut, self.surface.barrier_faces = self._cut, state.get("_bakka")
+        self.surface = _surface(V, F, self.options, self._cut, state.get("_bakka"))
         self._prepared = Prepared(state["_prepared"])
 
     def _prepare(self, progress):
@@ -347,12 +345,15 @@ class Reconstructor:
         return W
 
 
-def _surface(V, F, options):
-    """The validated arrays as a Surface: a mesh, or a point cloud when ``F`` is None."""
+def _surface(V, F, options, cut=None, barrier_faces=None):
+    """The validated arrays as a Surface: a mesh (cut along barriers, or with Bakka's barrier faces), or a point cloud
+    when ``F`` is None."""
     if F is None:
         return Surface.from_points(V, neighbours=options.fill.neighbours, distance=options.fill.distance,
                                    check=False)
-    return Surface.from_mesh(V, F, distance=options.fill.distance, check=False)
+    surface = Surface.from_mesh(V, F, distance=options.fill.distance, check=False, cut=cut)
+    surface.barrier_faces = barrier_faces
+    return surface
 
 
 def _process_local(piece):

@@ -3,9 +3,12 @@
 ``python -m bench.mne_adapter [--trials 20] [--methods biharmonic,gp]``: MNE's shipped biosemi 32, 64 and 128
 montages; the electrodes moved onto MNE's shipped fsaverage scalp (a cap on that head) or left at the montage's
 positions (``--as-given``); the potential of three current dipoles 2.5 cm under the scalp (random places and
-orientations, infinite homogeneous medium) at the electrodes; 10% of the channels marked bad; the RMS error on
-the bad channels over all trials for manifill and for ``inst.interpolate_bads()``, and their ratio. Then the time to
-fill an ``Epochs`` of 100 epochs x 1,000 samples x 64 channels (6 bad), both, alternated.
+orientations, infinite homogeneous medium) at the electrodes, or (``--model sphere``) of three dipoles in the brain
+(random places 0.5-0.85 of the head's radius from its centre, above the ears, random orientations) through MNE's
+four-shell spherical head model fitted to the cap (``mne.make_sphere_model``, ``mne.make_forward_dipole``: brain,
+CSF, skull, scalp conductivities); 10% of the channels marked bad; the RMS error on the bad channels over all trials
+for manifill and for ``inst.interpolate_bads()``, and their ratio. Then the time to fill an ``Epochs`` of 100 epochs
+x 1,000 samples x 64 channels (6 bad), both, alternated.
 """
 
 import argparse
@@ -46,13 +49,32 @@ def potential(P, V, rng, depth=0.025):
     return out
 
 
-def accuracy(name, methods, trials, on_scalp):
+def sphere_potentials(info, sphere, rng, fields=4, dipoles=3):
+    """``(channels, fields)``: each column the potential of ``dipoles`` random dipoles in the brain, MNE's forward."""
+    r0, radius, pos = sphere["r0"], sphere.radius, []
+    while len(pos) < fields * dipoles:
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        if u[2] >= 0.1:  # above the ears
+            pos.append(r0 + u * radius * rng.uniform(0.5, 0.85))
+    ori = rng.normal(size=(len(pos), 3))
+    ori /= np.linalg.norm(ori, axis=1)[:, None]
+    dip = mne.Dipole(np.arange(len(pos)) * 1e-3, np.array(pos), np.full(len(pos), 1e-8), ori, np.ones(len(pos)))
+    G = mne.make_forward_dipole(dip, sphere, info)[0]["sol"]["data"]
+    return np.column_stack([G[:, dipoles * t:dipoles * (t + 1)].sum(axis=1) for t in range(fields)])
+
+
+def accuracy(name, methods, trials, on_scalp, model="infinite"):
     V, F = head_surface()
     info, P = montage_info(name, V, F, on_scalp)
+    sphere = mne.make_sphere_model("auto", "auto", info) if model == "sphere" else None
     errs = {m: [] for m in methods + ["mne"]}
     for trial in range(trials):
         rng = np.random.default_rng(trial)
-        data = np.column_stack([potential(P, V, np.random.default_rng(1000 * trial + t)) for t in range(4)])
+        if sphere is None:
+            data = np.column_stack([potential(P, V, np.random.default_rng(1000 * trial + t)) for t in range(4)])
+        else:
+            data = sphere_potentials(info, sphere, np.random.default_rng(1000 + trial))
         ev = mne.EvokedArray(data, info.copy())
         bads = list(rng.choice(info["ch_names"], max(1, len(P) // 10), replace=False))
         ev.info["bads"] = bads
@@ -63,7 +85,8 @@ def accuracy(name, methods, trials, on_scalp):
         errs["mne"].append(np.mean((ev.copy().interpolate_bads().data[bi] - data[bi]) ** 2))
     rms = {m: float(np.sqrt(np.mean(e))) for m, e in errs.items()}
     line = ", ".join(f"{m} {rms[m]:.4g} ({rms[m] / rms['mne']:.2f}x)" for m in methods)
-    print(f"{name} ({len(P)} channels, {trials} trials, {'on the scalp' if on_scalp else 'as given'}): mne "
+    where = f"{'on the scalp' if on_scalp else 'as given'}, {model} model"
+    print(f"{name} ({len(P)} channels, {trials} trials, {where}): mne "
           f"{rms['mne']:.4g}; {line}")
 
 
@@ -95,13 +118,15 @@ def timing(repeats):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=20)
-    p.add_argument("--methods", default="biharmonic,gp,rbf")
+    p.add_argument("--methods", default="biharmonic,triharmonic,gp,rbf")
     p.add_argument("--as-given", action="store_true")
+    p.add_argument("--model", default="infinite,sphere", help="infinite (homogeneous medium), sphere (MNE's shells)")
     p.add_argument("--repeats", type=int, default=7)
     a = p.parse_args(argv)
     mne.set_log_level("ERROR")
-    for name in MONTAGES:
-        accuracy(name, a.methods.split(","), a.trials, not a.as_given)
+    for model in a.model.split(","):
+        for name in MONTAGES:
+            accuracy(name, a.methods.split(","), a.trials, not a.as_given, model)
     timing(a.repeats)
 
 

@@ -144,3 +144,14 @@ def test_many_fields_factorise_one_large_positive_definite_system_with_pardiso_o
     assert auto_backend(100_000, 700_000, fields=many) == "amg"  # not known SPD: SuperLU-sized fill-in rule
     monkeypatch.setenv(DIRECT_ENV, "superlu")
     assert auto_backend(100_000, 700_000, fields=many, spd=True) == "amg"
+
+
+def test_many_fields_factorise_a_fourth_order_kkt_system_with_either_factoriser(monkeypatch):
+    # AMG-CG on the rows eliminated is slow per field (measured 0.9-9 s at 41k-163k vertices): many fields factorise
+    from manifill.linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
+
+    for name in ("pardiso", "superlu"):
+        monkeypatch.setenv(DIRECT_ENV, name)
+        assert auto_backend(100_000, 700_000, fields=AUTO_DIRECT_FIELDS, rows=True) == "direct"
+        assert auto_backend(100_000, 700_000, fields=AUTO_DIRECT_FIELDS - 1, rows=True) == "amg"
+        assert auto_backend(10**9, 7 * 10**9, fields=AUTO_DIRECT_FIELDS, rows=True) == "amg"  # the factors do not fit

@@ -426,7 +426,7 @@ def solve_block(rows, scale=1):
     return int(max(1, min(64, scale * SOLVE_BLOCK_BYTES // (8 * max(int(rows), 1)))))
 
 
-def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False):
+def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False, rows=False):
     """The backend ``solver='auto'`` picks for a system of ``unknowns`` shared by ``fields`` fields.
 
     A factorisation up to :data:`AUTO_DIRECT_MAX` unknowns. Above, for at least
@@ -437,7 +437,10 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False):
     each field costs a pair of triangular solves. So is one connected symmetric positive
     definite (``spd``) system when Pardiso is installed: its Cholesky factor of 163k
     unknowns took 1.3 s and 31 ms per field against AMG-CG's 100-130 ms per field (SuperLU
-    filled the same system in to 36M entries, as slow as CG). AMG-CG otherwise.
+    filled the same system in to 36M entries, as slow as CG). So is a 4th-order energy's KKT system (``rows``:
+    samples inside faces), with either factoriser: AMG-CG on its rows eliminated took 0.9-9 s per field where the
+    factorisation and eight fields took 0.8-4.3 s (Pardiso) or 2.1-19 s (SuperLU) at 41k-163k vertices, measured
+    side by side (docs/NOTES.md). AMG-CG otherwise.
 
     Examples
     --------
@@ -445,13 +448,15 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False):
     ('direct', 'amg')
     >>> auto_backend(100_000, 700_000, fields=100, largest=3_000), auto_backend(100_000, 700_000, largest=3_000)
     ('direct', 'amg')
+    >>> auto_backend(100_000, 700_000, fields=100, rows=True)
+    'direct'
     """
     if unknowns <= AUTO_DIRECT_MAX:
         return "direct"
     small = (unknowns if largest is None else largest) <= AUTO_DIRECT_MAX
     one = spd and direct_factoriser() == "pardiso"
     fits = fields >= AUTO_DIRECT_FIELDS and lu_memory(unknowns, nnz, dim=dim) <= 0.5 * available_bytes()
-    return "direct" if fits and (small or one) else "amg"
+    return "direct" if fits and (small or one or rows) else "amg"
 
 
 def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel", tol=None, maxiter=None,

@@ -157,8 +157,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         raise OptionError("sample_weights weigh soft constraints; pass smoothing= too, or leave them out")
     auto = solver == "auto"
     if auto and fields >= AUTO_DIRECT_FIELDS and (Aeq is None or lohi is None):
-        # many fields: a factorisation if it fits (a symmetric positive definite one without rows)
-        solver = auto_backend(A.shape[0] - idx.size, A.nnz, fields, spd=Aeq is None)
+        # many fields: a factorisation if it fits (a symmetric positive definite one without rows; a k >= 2 KKT one)
+        solver = auto_backend(A.shape[0] - idx.size, A.nnz, fields, spd=Aeq is None, rows=Aeq is not None and k > 1)
     if Aeq is not None:
         solver, tol, maxiter = _row_solver(k, surface.n - idx.size - Aeq.shape[0], solver, lohi, tol, maxiter)
     elif k > 1:  # the k-harmonic systems' own backend policy and tolerance
@@ -316,9 +316,10 @@ def _row_solver(k, free, solver, lohi, tol, maxiter):
     if solver == "iterate":
         raise OptionError("samples inside faces are equality rows, which solver='iterate' cannot hold; "
                           "pass solver='direct', 'amg' or 'auto'")
-    if solver == "auto":  # the size policy of the vertex samples' solves (measured: bench/biharmonic_speed.py)
-        big = free > (AUTO_DIRECT_MAX if k == 1 else PolyharmonicSolver.AUTO_DIRECT_MAX) and k <= 2
-        solver = "amg" if big and lohi is None else "direct"
+    if solver == "auto" and k > 1:  # the vertex samples' policy (bench/biharmonic_speed.py): Pardiso where it fits
+        solver = "direct" if lohi is not None else PolyharmonicSolver.settings(k, free)[0]
+    elif solver == "auto":
+        solver = "amg" if free > AUTO_DIRECT_MAX and lohi is None else "direct"
     if solver == "amg" and lohi is not None:
         raise OptionError("bounds with samples inside faces are solved by factorising their KKT system; "
                           "pass solver='direct' (or 'auto')")

@@ -263,7 +263,8 @@ def _check_rows(Aeq, idx, points):
     rlab, clab = lab[:m], lab[m:]
     nrows = np.bincount(rlab, minlength=lab.max() + 1)
     ncols = np.bincount(clab, minlength=lab.max() + 1) if N else np.zeros_like(nrows)
-    for b in np.flatnonzero(nrows > 0):
+    # a lone row with a free vertex (all have one, above) has rank one: only blocks of several rows are checked
+    for b in np.flatnonzero(nrows > 1):
         rows = np.flatnonzero(rlab == b)
         bad = nrows[b] > ncols[b]
         if not bad and rows.size <= RANK_BLOCK:

@@ -8,7 +8,7 @@ orientations, infinite homogeneous medium) at the electrodes, or (``--model sphe
 four-shell spherical head model fitted to the cap (``mne.make_sphere_model``, ``mne.make_forward_dipole``: brain,
 CSF, skull, scalp conductivities); 10% of the channels marked bad; the RMS error on the bad channels over all trials
 for manifill and for ``inst.interpolate_bads()``, and their ratio. Then the time to fill an ``Epochs`` of 100 epochs
-x 1,000 samples x 64 channels (6 bad), both, alternated.
+x 1,000 samples x 64 channels (6 bad), both, alternated; ``--sizes 0,1,2``: the map's build on the head refined.
 """
 
 import argparse
@@ -16,8 +16,9 @@ import time
 
 import numpy as np
 
+import igl
 import mne
-from manifill.adapters.mne import electrodes, forget_maps, head_surface, interpolate_bads
+from manifill.adapters.mne import ScalpMap, electrodes, forget_maps, head_surface, interpolate_bads
 from manifill.surface.locate import locate_points
 
 MONTAGES = ("biosemi32", "biosemi64", "biosemi128")
@@ -115,6 +116,18 @@ def timing(repeats):
           f"{min(warm):.3f} s ({min(warm) / m:.2f}x)")
 
 
+def map_sizes(levels):
+    """The scalp map's build time on fsaverage's head refined by Loop subdivision (a subject's denser scalp)."""
+    V0, F0 = head_surface()
+    info, _ = montage_info("biosemi64", V0, F0, True)
+    names = info["ch_names"]
+    for level in levels:
+        V, F = (V0, F0) if level == 0 else igl.loop(V0, F0, level)
+        t = time.perf_counter()
+        ScalpMap(info, names[6:], names[:6], surface=(np.asarray(V), np.asarray(F)))
+        print(f"scalp map, 58 good and 6 bad channels, head with {len(V):,} vertices: {time.perf_counter() - t:.2f} s")
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=20)
@@ -122,12 +135,15 @@ def main(argv=None):
     p.add_argument("--as-given", action="store_true")
     p.add_argument("--model", default="infinite,sphere", help="infinite (homogeneous medium), sphere (MNE's shells)")
     p.add_argument("--repeats", type=int, default=7)
+    p.add_argument("--sizes", default="", help="Loop subdivision levels of the head to time the map on, e.g. 0,1,2")
     a = p.parse_args(argv)
     mne.set_log_level("ERROR")
     for model in a.model.split(","):
         for name in MONTAGES:
             accuracy(name, a.methods.split(","), a.trials, not a.as_given, model)
     timing(a.repeats)
+    if a.sizes:
+        map_sizes([int(x) for x in a.sizes.split(",")])
 
 
 if __name__ == "__main__":

@@ -437,10 +437,8 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False, rows=F
     each field costs a pair of triangular solves. So is one connected symmetric positive
     definite (``spd``) system when Pardiso is installed: its Cholesky factor of 163k
     unknowns took 1.3 s and 31 ms per field against AMG-CG's 100-130 ms per field (SuperLU
-    filled the same system in to 36M entries, as slow as CG). So is a 4th-order energy's KKT system (``rows``:
-    samples inside faces), with either factoriser: AMG-CG on its rows eliminated took 0.9-9 s per field where the
-    factorisation and eight fields took 0.8-4.3 s (Pardiso) or 2.1-19 s (SuperLU) at 41k-163k vertices, measured
-    side by side (docs/NOTES.md). AMG-CG otherwise.
+    filled the same system in to 36M entries, as slow as CG). So is a 4th-order KKT system (``rows``), with either
+    factoriser (AMG-CG on its rows eliminated: 0.9-9 s per field at 41k-163k; docs/NOTES.md). AMG-CG otherwise.
 
     Examples
     --------
@@ -448,8 +446,6 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False, rows=F
     ('direct', 'amg')
     >>> auto_backend(100_000, 700_000, fields=100, largest=3_000), auto_backend(100_000, 700_000, largest=3_000)
     ('direct', 'amg')
-    >>> auto_backend(100_000, 700_000, fields=100, rows=True)
-    'direct'
     """
     if unknowns <= AUTO_DIRECT_MAX:
         return "direct"

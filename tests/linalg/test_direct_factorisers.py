@@ -144,28 +144,3 @@ def test_many_fields_factorise_one_large_positive_definite_system_with_pardiso_o
     assert auto_backend(100_000, 700_000, fields=many) == "amg"  # not known SPD: SuperLU-sized fill-in rule
     monkeypatch.setenv(DIRECT_ENV, "superlu")
     assert auto_backend(100_000, 700_000, fields=many, spd=True) == "amg"
-
-
-def test_many_fields_factorise_a_fourth_order_kkt_system_with_either_factoriser(monkeypatch):
-    # AMG-CG on the rows eliminated is slow per field (measured 0.9-9 s at 41k-163k vertices): many fields factorise
-    from manifill.linalg.backends import AUTO_DIRECT_FIELDS, auto_backend
-
-    for name in ("pardiso", "superlu"):
-        monkeypatch.setenv(DIRECT_ENV, name)
-        assert auto_backend(100_000, 700_000, fields=AUTO_DIRECT_FIELDS, rows=True) == "direct"
-        assert auto_backend(100_000, 700_000, fields=AUTO_DIRECT_FIELDS - 1, rows=True) == "amg"
-        assert auto_backend(10**9, 7 * 10**9, fields=AUTO_DIRECT_FIELDS, rows=True) == "amg"  # the factors do not fit
-
-
-def test_many_fields_inside_faces_of_a_large_mesh_are_factorised_and_meet_their_points():
-    # 40,962 vertices (above the 20,000 of auto's plain rule), points inside faces: the biharmonic's KKT factorised
-    import manifill
-    from manifill.surface.locate import locate_points
-
-    V, F = icosphere(6)
-    rng = np.random.default_rng(0)
-    P = locate_points(V, F, V[rng.choice(len(V), 12, replace=False)] + 0.004, max_distance=0.1).points
-    vals = rng.normal(size=(12, 8))
-    r = manifill.reconstruct(V, F, P, vals, method="biharmonic", max_distance=0.1)
-    assert r.report["harmonic"]["solver"] == "direct"
-    assert np.abs(r.at(P) - vals).max() < 1e-9  # each point's value at its point

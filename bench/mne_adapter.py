@@ -9,6 +9,7 @@ four-shell spherical head model fitted to the cap (``mne.make_sphere_model``, ``
 CSF, skull, scalp conductivities); 10% of the channels marked bad; the RMS error on the bad channels over all trials
 for manifill and for ``inst.interpolate_bads()``, and their ratio. Then the time to fill an ``Epochs`` of 100 epochs
 x 1,000 samples x 64 channels (6 bad), both, alternated; ``--sizes 0,1,2``: the map's build on the head refined.
+``interpolate_to``: the 32-channel cap's data moved onto the 64-channel cap, and 64 onto 128, beside MNE's own.
 """
 
 import argparse
@@ -18,7 +19,7 @@ import numpy as np
 
 import igl
 import mne
-from manifill.adapters.mne import ScalpMap, electrodes, forget_maps, head_surface, interpolate_bads
+from manifill.adapters.mne import ScalpMap, electrodes, forget_maps, head_surface, interpolate_bads, interpolate_to
 from manifill.surface.locate import locate_points
 
 MONTAGES = ("biosemi32", "biosemi64", "biosemi128")
@@ -91,6 +92,38 @@ def accuracy(name, methods, trials, on_scalp, model="infinite"):
           f"{rms['mne']:.4g}; {line}")
 
 
+def cap(name, on):
+    """The montage ``name`` with its electrodes at ``on`` (head coordinates)."""
+    mon = mne.channels.make_standard_montage(name)
+    fid = mon.get_positions()
+    return mne.channels.make_dig_montage(ch_pos=dict(zip(mon.ch_names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
+                                         rpa=fid["rpa"], coord_frame="head")
+
+
+def moved(source, dest, trials, model):
+    """``interpolate_to``: a cap's data moved onto a denser cap, ours beside MNE's (spherical splines)."""
+    V, F = head_surface()
+    info, P = montage_info(source, V, F, True)
+    tinfo, T = montage_info(dest, V, F, True)
+    both = mne.create_info(info["ch_names"] + [f"to {n}" for n in tinfo["ch_names"]], 500.0, "eeg")
+    both.set_montage(mne.channels.make_dig_montage(ch_pos=dict(zip(both["ch_names"], np.vstack([P, T]))),
+                                                   coord_frame="head"))
+    sphere = mne.make_sphere_model("auto", "auto", info) if model == "sphere" else None
+    ours, theirs = [], []
+    for trial in range(trials):
+        if sphere is None:
+            d = np.column_stack([potential(np.vstack([P, T]), V, np.random.default_rng(1000 * trial + t))
+                                 for t in range(4)])
+        else:
+            d = sphere_potentials(both, sphere, np.random.default_rng(1000 + trial))
+        ev = mne.EvokedArray(d[:len(P)], info.copy())
+        ours.append(np.mean((interpolate_to(ev, cap(dest, T)).data - d[len(P):]) ** 2))
+        theirs.append(np.mean((ev.copy().interpolate_to(cap(dest, T), method="spline").data - d[len(P):]) ** 2))
+    a, b = np.sqrt(np.mean(ours)), np.sqrt(np.mean(theirs))
+    print(f"interpolate_to {source} -> {dest} ({trials} trials, {model} model): mne {b:.4g}; manifill biharmonic "
+          f"{a:.4g} ({a / b:.2f}x)")
+
+
 def timing(repeats):
     mon = mne.channels.make_standard_montage("biosemi64")
     info = mne.create_info(mon.ch_names, 1000.0, "eeg")
@@ -141,6 +174,8 @@ def main(argv=None):
     for model in a.model.split(","):
         for name in MONTAGES:
             accuracy(name, a.methods.split(","), a.trials, not a.as_given, model)
+        for source, dest in zip(MONTAGES, MONTAGES[1:]):
+            moved(source, dest, a.trials, model)
     timing(a.repeats)
     if a.sizes:
         map_sizes([int(x) for x in a.sizes.split(",")])

@@ -9,6 +9,8 @@
   default -- and applied to every sample of every epoch;
 - :func:`interpolate_bads`: a copy of a ``Raw``, ``Epochs`` or ``Evoked`` with its bad EEG channels filled, as
   MNE's own ``interpolate_bads`` returns (``reset_bads`` likewise);
+- :func:`interpolate_to`: the EEG channels of a ``Raw``, ``Epochs`` or ``Evoked`` moved onto another montage (a
+  ``DigMontage``: another cap, a standard layout to pool subjects), as MNE's own ``interpolate_to`` does;
 - :func:`to_surface`: an ``Evoked`` (or any instance) as a field over the whole scalp, one column per time
   sample: a :class:`manifill.Reconstruction` (write it with ``.save``).
 
@@ -30,7 +32,8 @@ try:
 except ImportError:  # the extra, named when used
     raise ImportError("manifill.adapters.mne needs MNE-Python: pip install 'manifill[mne]'") from None
 
-__all__ = ["head_surface", "electrodes", "ScalpMap", "interpolate_bads", "to_surface", "forget_maps", "MAX_DISTANCE"]
+__all__ = ["head_surface", "electrodes", "ScalpMap", "interpolate_bads", "interpolate_to", "to_surface", "forget_maps",
+           "MAX_DISTANCE"]
 
 #: How far (metres) an electrode may sit from the scalp surface and still be located on it.
 MAX_DISTANCE = 0.03
@@ -122,8 +125,8 @@ class ScalpMap:
     info : mne.Info
     good : list of str
         The channels measured.
-    targets : list of str, optional
-        Channels to fill (the bad ones).
+    targets : list of str or (t, 3) array, optional
+        Channels of ``info`` to fill (the bad ones), or positions in head coordinates (another montage's).
     surface : as :func:`head_surface`
     method : str
         A method linear in the values (``biharmonic`` by default; ``harmonic``, ``triharmonic``, ``rbf``, ``gp``
@@ -145,7 +148,9 @@ class ScalpMap:
     def __init__(self, info, good, targets=(), *, surface=None, method="biharmonic", max_distance=MAX_DISTANCE,
                  **options):
         self.V, self.F = head_surface(surface)
-        self.good, self.targets = list(good), list(targets)
+        where = isinstance(targets, np.ndarray)
+        self.good, self.targets = list(good), (np.asarray(targets, dtype=np.float64).reshape(-1, 3) if where else
+                                               list(targets))
         _, P = electrodes(info, self.good)
         if len(self.good) < 4:
             raise SampleError(f"{len(self.good)} good EEG channels; a scalp map needs at least 4")
@@ -158,8 +163,8 @@ class ScalpMap:
         self.reconstructor = rec
         self.W = np.asarray(rec.matrix(form="operator") @ np.eye(len(P)))
         self.B = np.zeros((0, len(P)))
-        if self.targets:
-            _, T = electrodes(info, self.targets)
+        if len(self.targets):
+            T = self.targets if where else electrodes(info, self.targets)[1]
             loc = locate_points(self.V, self.F, T, max_distance=max_distance)
             self.B = np.einsum("tc,tck->tk", loc.bary, self.W[loc.corners])
 
@@ -176,11 +181,14 @@ MAPS_KEPT = 8
 
 
 def _scalp_map(info, good, bads, surface, method, options):
+    """The map from ``good`` to ``bads`` (names in ``info``, or positions), kept by what makes it."""
     if surface is not None and not (isinstance(surface, tuple) and len(surface) == 2):
         return ScalpMap(info, good, bads, surface=surface, method=method, **options)  # a file or dict: no key
-    where = [electrodes(info, names)[1].tobytes() for names in (good, bads)]
+    to = np.ascontiguousarray(bads, dtype=np.float64) if isinstance(bads, np.ndarray) else electrodes(info, bads)[1]
+    where = [electrodes(info, good)[1].tobytes(), to.tobytes()]
     mesh = None if surface is None else tuple(np.ascontiguousarray(a).tobytes() for a in surface)
-    key = (tuple(good), tuple(bads), *where, mesh, method, repr(sorted(options.items())))
+    names = ("positions",) if isinstance(bads, np.ndarray) else tuple(bads)
+    key = (tuple(good), names, *where, mesh, method, repr(sorted(options.items())))
     if key not in _MAPS:
         if len(_MAPS) >= MAPS_KEPT:
             _MAPS.pop(next(iter(_MAPS)))
@@ -229,6 +237,64 @@ def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic"
         data[bi] = m.B @ data[gi]
     if reset_bads:
         out.info["bads"] = [b for b in out.info["bads"] if b not in bads]
+    return out
+
+
+def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **options):
+    """A new instance (``Raw``, ``Epochs`` or ``Evoked``) whose EEG channels are those of the montage ``sensors``.
+
+    Their values come from the good EEG channels of ``inst`` through one :class:`ScalpMap` (kept for the next call
+    with the same caps); the other channels (EOG, stimulus, ...) stay, in their places, the new EEG channels where
+    the first EEG channel was. Bad EEG channels are dropped (their values are not used); other bads stay marked.
+
+    Parameters
+    ----------
+    inst : mne.io.Raw, mne.Epochs or mne.Evoked
+    sensors : mne.channels.DigMontage
+        The target montage (e.g. ``mne.channels.make_standard_montage('standard_1020')``, or a cap's own), placed in
+        head coordinates by its fiducials as ``set_montage`` places it.
+    surface, method, **options
+        As :func:`interpolate_bads`.
+
+    Raises
+    ------
+    OptionError
+        ``sensors`` not a montage or without channel positions, channels of ``inst`` without positions, a method
+        that is not linear.
+    """
+    if not isinstance(sensors, mne.channels.DigMontage):
+        raise OptionError(f"sensors is a {type(sensors).__name__}, not an mne.channels.DigMontage; pass a montage "
+                          f"(mne.channels.make_standard_montage('standard_1020'), or your cap's)")
+    names = list(sensors.ch_names)
+    if not names:
+        raise OptionError("the montage has no channel positions; pass one with its electrodes' positions")
+    target = mne.create_info(names, inst.info["sfreq"], "eeg")
+    target.set_montage(sensors)  # head coordinates, as MNE places a montage
+    bads, good = _eeg_bads(inst)
+    if not good:
+        raise OptionError("inst has no good EEG channel to interpolate from; mark fewer channels bad")
+    m = _scalp_map(inst.info, good, electrodes(target)[1], surface, method, options)
+    src = inst.copy()
+    if not getattr(src, "preload", True):
+        src.load_data()
+    order = src.info["ch_names"]
+    eeg = [n for n in order if n in set(good) | set(bads)]
+    moved = np.matmul(m.B, src.get_data(picks=good))  # (targets, times), or (epochs, targets, times)
+    target.set_meas_date(src.info["meas_date"])
+    if isinstance(src, mne.BaseEpochs):
+        new = mne.EpochsArray(moved, target, events=src.events, tmin=src.tmin, event_id=src.event_id, verbose=False)
+    elif isinstance(src, mne.Evoked):
+        new = mne.EvokedArray(moved, target, tmin=src.tmin, nave=src.nave, comment=src.comment, verbose=False)
+    else:
+        new = mne.io.RawArray(moved, target, first_samp=src.first_samp, verbose=False)
+        new.set_annotations(src.annotations)
+    rest = [n for n in order if n not in eeg]
+    if not rest:
+        return new
+    at = order.index(eeg[0])
+    out = src.pick(rest)
+    out.add_channels([new], force_update_info=True)
+    out.reorder_channels([n for n in order[:at] if n in rest] + names + [n for n in order[at:] if n in rest])
     return out
 
 

@@ -232,3 +232,48 @@ def test_interpolate_to_more_accurate_than_mne_s_from_a_sparse_cap():
         ours.append(np.mean((interpolate_to(ev, to).data - both[32:]) ** 2))
         theirs.append(np.mean((ev.copy().interpolate_to(to, method="spline").data - both[32:]) ** 2))
     assert np.mean(ours) <= np.mean(theirs)
+
+
+def test_interpolate_to_keeps_what_the_instance_carries():
+    """With no other channel: the filters, events of a condition left empty, metadata, annotations (no meas_date,
+    a cropped Raw) all kept; the EEG projector is not (documented)."""
+    info, on = on_scalp_info("biosemi32")
+    to = cap_montage("biosemi64", on_scalp_info("biosemi64")[1])
+    rng = np.random.default_rng(5)
+    raw = mne.io.RawArray(rng.normal(size=(32, 2000)), info).filter(1.0, 40.0, verbose=False).crop(0.4)
+    raw.set_annotations(mne.Annotations([1.0], [0.2], ["blink"]))
+    out = interpolate_to(raw, to)
+    assert (out.info["highpass"], out.info["lowpass"], out.first_samp) == (1.0, 40.0, raw.first_samp)
+    assert out.ch_names == to.ch_names and out.annotations.onset.tolist() == raw.annotations.onset.tolist()
+    events = np.array([[100, 0, 1], [500, 0, 2], [900, 0, 1]]) + [raw.first_samp, 0, 0]
+    epochs = mne.Epochs(raw, events, {"a": 1, "b": 2}, tmin=0, tmax=0.1, baseline=None, preload=True)
+    epochs.metadata = pytest.importorskip("pandas").DataFrame({"trial": [1, 2, 3]})
+    epochs.drop([1])  # condition b has no epoch left
+    moved = interpolate_to(epochs, to)
+    assert moved.event_id == epochs.event_id and moved.metadata["trial"].tolist() == [1, 3]
+    assert np.allclose(moved.get_data(), ScalpMap(info, info["ch_names"], dict(zip(to.ch_names, electrodes(
+        moved.info)[1]))).apply(epochs.get_data().transpose(1, 0, 2)).transpose(1, 0, 2))
+
+
+def test_interpolate_to_and_scalp_maps_name_what_they_cannot_place():
+    info, on = on_scalp_info("biosemi32")
+    ev = mne.EvokedArray(np.zeros((32, 3)), info)
+    far = dict(zip(info["ch_names"], on))
+    far["Cz"] = far["Cz"] * 1.5
+    with pytest.raises(manifill.SampleError, match=r"1 electrodes lie farther than 3 cm from the scalp \(Cz at"):
+        interpolate_to(ev, mne.channels.make_dig_montage(ch_pos=far, coord_frame="head"))
+    holes = dict(zip(info["ch_names"], on))
+    holes["Pz"] = np.full(3, np.nan)
+    with pytest.raises(OptionError, match="the montage's channel 'Pz' has no position"):
+        interpolate_to(ev, mne.channels.make_dig_montage(ch_pos=holes, coord_frame="head"))
+    eog = ev.copy().add_channels([mne.EvokedArray(np.zeros((1, 3)), mne.create_info(["Cz "], 500.0, "eog"))],
+                                 force_update_info=True)
+    eog.rename_channels({"Cz ": "T7x"})
+    clash = dict(zip(info["ch_names"], on))
+    clash["T7x"] = clash.pop("T7")
+    with pytest.raises(OptionError, match="'T7x' has the name of a channel of the data that is not EEG"):
+        interpolate_to(eog, mne.channels.make_dig_montage(ch_pos=clash, coord_frame="head"))
+    good = info["ch_names"][1:]
+    with pytest.raises(OptionError, match=r"targets of shape \(2, 2\) are neither"):
+        ScalpMap(info, good, np.zeros((2, 2)))
+    assert np.allclose(ScalpMap(info, good, np.array(["Fp1"])).B, ScalpMap(info, good, [on[0].tolist()]).B)

@@ -125,8 +125,9 @@ class ScalpMap:
     info : mne.Info
     good : list of str
         The channels measured.
-    targets : list of str or (t, 3) array, optional
-        Channels of ``info`` to fill (the bad ones), or positions in head coordinates (another montage's).
+    targets : list of str, (t, 3) array or dict, optional
+        Channels of ``info`` to fill (the bad ones), or positions in head coordinates (another montage's), or a
+        dict of such positions by name (the names go into error messages).
     surface : as :func:`head_surface`
     method : str
         A method linear in the values (``biharmonic`` by default; ``harmonic``, ``triharmonic``, ``rbf``, ``gp``
@@ -148,14 +149,16 @@ class ScalpMap:
     def __init__(self, info, good, targets=(), *, surface=None, method="biharmonic", max_distance=MAX_DISTANCE,
                  **options):
         self.V, self.F = head_surface(surface)
-        where = isinstance(targets, np.ndarray)
-        self.good, self.targets = list(good), (np.asarray(targets, dtype=np.float64).reshape(-1, 3) if where else
-                                               list(targets))
+        self.good, (self.targets, where) = list(good), _targets(targets)
         _, P = electrodes(info, self.good)
         if len(self.good) < 4:
             raise SampleError(f"{len(self.good)} good EEG channels; a scalp map needs at least 4")
-        rec = Reconstructor(self.V, self.F, P, method=method, max_distance=max_distance, fields=len(P), prepare=False,
-                            **options)
+        try:
+            rec = Reconstructor(self.V, self.F, P, method=method, max_distance=max_distance, fields=len(P),
+                                prepare=False, **options)
+        except SampleError:
+            _on_scalp(self.V, self.F, P, self.good, max_distance)  # an electrode off the scalp: named
+            raise
         if not rec.linear:
             raise OptionError(f"method={method!r} as configured is not linear in the values ({rec._why}), so it has "
                               f"no map to apply to every sample; use method='biharmonic' (or a gp with range and "
@@ -165,13 +168,40 @@ class ScalpMap:
         self.B = np.zeros((0, len(P)))
         if len(self.targets):
             T = self.targets if where else electrodes(info, self.targets)[1]
-            loc = locate_points(self.V, self.F, T, max_distance=max_distance)
+            names = (list(targets) if isinstance(targets, dict) else [f"target {i}" for i in range(len(T))]) if where \
+                else self.targets
+            loc = _on_scalp(self.V, self.F, T, names, max_distance)
             self.B = np.einsum("tc,tck->tk", loc.bary, self.W[loc.corners])
 
     def apply(self, data):
         """``(targets, ...)`` values of the target channels from the good channels' ``(good, ...)`` data."""
         X = np.asarray(data, dtype=np.float64)
         return np.tensordot(self.B, X, axes=(1, 0))
+
+
+def _targets(targets):
+    """``(names, False)`` or ``((t, 3) positions, True)``: the channels a map fills (a dict: its positions)."""
+    if len(targets) == 0:
+        return [], False
+    arr = np.asarray(list(targets.values()) if isinstance(targets, dict) else targets)
+    if arr.dtype.kind not in "fiu":
+        return [str(t) for t in targets], False
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise OptionError(f"targets of shape {arr.shape} are neither channel names nor (t, 3) positions; pass names "
+                          f"of channels in info, or positions in head coordinates (metres)")
+    return arr.astype(np.float64), True
+
+
+def _on_scalp(V, F, P, names, max_distance):
+    """The electrodes ``P`` located on the scalp; one line naming the farthest of those beyond ``max_distance``."""
+    loc = locate_points(V, F, P, max_distance=np.inf)
+    far = np.flatnonzero(~(loc.distance <= max_distance))
+    if far.size:
+        i = far[np.argmax(np.nan_to_num(loc.distance[far], nan=np.inf))]
+        raise SampleError(f"{far.size} electrodes lie farther than {100 * max_distance:g} cm from the scalp ("
+                          f"{names[i]!s} at {100 * loc.distance[i]:.1f} cm); pass a scalp that fits the cap "
+                          f"(surface=), or max_distance= in metres")
+    return loc
 
 
 #: The scalp maps built lately, by what makes them (a montage's good and bad channels' positions, the surface, the
@@ -181,13 +211,15 @@ MAPS_KEPT = 8
 
 
 def _scalp_map(info, good, bads, surface, method, options):
-    """The map from ``good`` to ``bads`` (names in ``info``, or positions), kept by what makes it."""
+    """The map from ``good`` to ``bads`` (names in ``info``, or a dict of positions by name), kept by what makes
+    it."""
     if surface is not None and not (isinstance(surface, tuple) and len(surface) == 2):
         return ScalpMap(info, good, bads, surface=surface, method=method, **options)  # a file or dict: no key
-    to = np.ascontiguousarray(bads, dtype=np.float64) if isinstance(bads, np.ndarray) else electrodes(info, bads)[1]
+    placed = isinstance(bads, dict)
+    to = np.array(list(bads.values()), dtype=np.float64) if placed else electrodes(info, bads)[1]
     where = [electrodes(info, good)[1].tobytes(), to.tobytes()]
     mesh = None if surface is None else tuple(np.ascontiguousarray(a).tobytes() for a in surface)
-    names = ("positions",) if isinstance(bads, np.ndarray) else tuple(bads)
+    names = ("positions", *bads) if placed else tuple(bads)
     key = (tuple(good), names, *where, mesh, method, repr(sorted(options.items())))
     if key not in _MAPS:
         if len(_MAPS) >= MAPS_KEPT:
@@ -245,7 +277,9 @@ def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **option
 
     Their values come from the good EEG channels of ``inst`` through one :class:`ScalpMap` (kept for the next call
     with the same caps); the other channels (EOG, stimulus, ...) stay, in their places, the new EEG channels where
-    the first EEG channel was. Bad EEG channels are dropped (their values are not used); other bads stay marked.
+    the first EEG channel was. Bad EEG channels are dropped (their values are not used); other bads stay marked;
+    the rest of ``inst`` (filters, events, metadata, annotations) is kept, but EEG projectors (an average
+    reference) are not: set the reference again on the new channels.
 
     Parameters
     ----------
@@ -265,35 +299,49 @@ def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **option
     if not isinstance(sensors, mne.channels.DigMontage):
         raise OptionError(f"sensors is a {type(sensors).__name__}, not an mne.channels.DigMontage; pass a montage "
                           f"(mne.channels.make_standard_montage('standard_1020'), or your cap's)")
-    names = list(sensors.ch_names)
+    where = sensors.get_positions()["ch_pos"]
+    names = list(where)
     if not names:
         raise OptionError("the montage has no channel positions; pass one with its electrodes' positions")
-    target = mne.create_info(names, inst.info["sfreq"], "eeg")
-    target.set_montage(sensors)  # head coordinates, as MNE places a montage
+    none = [n for n, p in where.items() if not np.isfinite(p).all()]
+    if none:
+        raise OptionError(f"the montage's channel {none[0]!r} has no position ({len(none)} without); give every "
+                          f"channel of the montage a position, or drop those")
     bads, good = _eeg_bads(inst)
     if not good:
         raise OptionError("inst has no good EEG channel to interpolate from; mark fewer channels bad")
-    m = _scalp_map(inst.info, good, electrodes(target)[1], surface, method, options)
+    order = inst.info["ch_names"]
+    eeg = [n for n in order if n in set(good) | set(bads)]
+    rest = [n for n in order if n not in eeg]
+    clash = [n for n in names if n in rest]
+    if clash:
+        raise OptionError(f"the montage's channel {clash[0]!r} has the name of a channel of the data that is not EEG; "
+                          f"rename it in the montage (montage.rename_channels) or drop it from the data")
+    target = mne.create_info(names, inst.info["sfreq"], "eeg")
+    target.set_montage(sensors)  # head coordinates, as MNE places a montage
+    m = _scalp_map(inst.info, good, dict(zip(names, electrodes(target)[1])), surface, method, options)
     src = inst.copy()
     if not getattr(src, "preload", True):
         src.load_data()
-    order = src.info["ch_names"]
-    eeg = [n for n in order if n in set(good) | set(bads)]
     moved = np.matmul(m.B, src.get_data(picks=good))  # (targets, times), or (epochs, targets, times)
     target.set_meas_date(src.info["meas_date"])
     if isinstance(src, mne.BaseEpochs):
-        new = mne.EpochsArray(moved, target, events=src.events, tmin=src.tmin, event_id=src.event_id, verbose=False)
+        new = mne.EpochsArray(moved, target, events=src.events, tmin=src.tmin, event_id=src.event_id,
+                              on_missing="ignore", verbose=False)
     elif isinstance(src, mne.Evoked):
-        new = mne.EvokedArray(moved, target, tmin=src.tmin, nave=src.nave, comment=src.comment, verbose=False)
+        new = mne.EvokedArray(moved, target, tmin=src.tmin, nave=src.nave, verbose=False)
     else:
         new = mne.io.RawArray(moved, target, first_samp=src.first_samp, verbose=False)
-        new.set_annotations(src.annotations)
-    rest = [n for n in order if n not in eeg]
+    # the output is the copy itself (its filters, events, metadata, annotations, ...): its other channels kept, or,
+    # with none, one EEG channel kept under a free name until the new ones are in
+    spare = next(f"{eeg[0]}~{i}" for i in range(len(names) + 1) if f"{eeg[0]}~{i}" not in names)
+    out = src.pick(rest or eeg[:1])
     if not rest:
-        return new
-    at = order.index(eeg[0])
-    out = src.pick(rest)
+        out.rename_channels({eeg[0]: spare})
     out.add_channels([new], force_update_info=True)
+    if not rest:
+        return out.drop_channels([spare])
+    at = order.index(eeg[0])
     out.reorder_channels([n for n in order[:at] if n in rest] + names + [n for n in order[at:] if n in rest])
     return out
 

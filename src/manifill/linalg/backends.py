@@ -429,16 +429,15 @@ def solve_block(rows, scale=1):
 def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False, rows=False):
     """The backend ``solver='auto'`` picks for a system of ``unknowns`` shared by ``fields`` fields.
 
-    A factorisation up to :data:`AUTO_DIRECT_MAX` unknowns. Above, for at least
-    :data:`AUTO_DIRECT_FIELDS` fields, when the system falls apart into independent
-    blocks (``largest``: the most unknowns of one, e.g. the pipeline's largest patch) of
-    at most :data:`AUTO_DIRECT_MAX` unknowns and the factors fit in the memory available
+    A factorisation up to :data:`AUTO_DIRECT_MAX` unknowns. Above, for at least :data:`AUTO_DIRECT_FIELDS` fields,
+    when the system falls apart into independent blocks (``largest``: the most unknowns of one, e.g. the pipeline's
+    largest patch) of at most :data:`AUTO_DIRECT_MAX` unknowns and the factors fit in the memory available
     (:func:`manifill.memory.lu_memory`): the factors of small blocks fill in little, and
     each field costs a pair of triangular solves. So is one connected symmetric positive
-    definite (``spd``) system when Pardiso is installed: its Cholesky factor of 163k
-    unknowns took 1.3 s and 31 ms per field against AMG-CG's 100-130 ms per field (SuperLU
-    filled the same system in to 36M entries, as slow as CG). So is a 4th-order KKT system (``rows``), with either
-    factoriser (AMG-CG on its rows eliminated: 0.9-9 s per field at 41k-163k; docs/NOTES.md). AMG-CG otherwise.
+    definite (``spd``) system when Pardiso is installed: its Cholesky factor of 163k unknowns took 1.3 s and 31 ms per
+    field against AMG-CG's 100-130 ms per field (SuperLU filled the same system in to 36M entries, as slow as CG). So
+    is a 4th-order KKT system (``rows``), with either factoriser (AMG-CG on its rows eliminated: 0.9-9 s per field at
+    41k-163k; docs/NOTES.md). AMG-CG otherwise.
 
     Examples
     --------
@@ -451,7 +450,8 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False, rows=F
         return "direct"
     small = (unknowns if largest is None else largest) <= AUTO_DIRECT_MAX
     one = spd and direct_factoriser() == "pardiso"
-    fits = fields >= AUTO_DIRECT_FIELDS and lu_memory(unknowns, nnz, dim=dim) <= 0.5 * available_bytes()
+    avail = available_bytes()
+    fits = fields >= AUTO_DIRECT_FIELDS and (avail is None or lu_memory(unknowns, nnz, dim=dim) <= 0.5 * avail)
     return "direct" if fits and (small or one or rows) else "amg"
 
 

@@ -112,7 +112,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         factorises the KKT system (and holds bounds); ``'amg'`` eliminates one free
         vertex per row (:func:`manifill.surface.points.eliminate_rows`) and runs
         AMG-preconditioned CG on the reduced, still positive definite, energy (no
-        bounds); ``'auto'`` picks between them by size as for vertex samples.
+        bounds); ``'auto'`` picks between them by size as for vertex samples, and factorises
+        a k >= 2 system of many fields wherever it fits.
         ``beq`` ((m, p) numpy array): their values.
     fields : int, optional
         How many fields will share these samples (default: ``vals``' columns); with
@@ -157,8 +158,11 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         raise OptionError("sample_weights weigh soft constraints; pass smoothing= too, or leave them out")
     auto = solver == "auto"
     if auto and fields >= AUTO_DIRECT_FIELDS and (Aeq is None or lohi is None):
-        # many fields: a factorisation if it fits (a symmetric positive definite one without rows; a k >= 2 KKT one)
-        solver = auto_backend(A.shape[0] - idx.size, A.nnz, fields, spd=Aeq is None, rows=Aeq is not None and k > 1)
+        # many fields: a factorisation if it fits (a symmetric positive definite one without rows; a k >= 2 KKT one),
+        # and wherever one field of a k >= 2 energy would factorise
+        free = A.shape[0] - idx.size
+        one = k > 1 and PolyharmonicSolver.settings(k, free)[0] == "direct"
+        solver = "direct" if one else auto_backend(free, A.nnz, fields, spd=Aeq is None, rows=Aeq is not None and k > 1)
     if Aeq is not None:
         solver, tol, maxiter = _row_solver(k, surface.n - idx.size - Aeq.shape[0], solver, lohi, tol, maxiter)
     elif k > 1:  # the k-harmonic systems' own backend policy and tolerance

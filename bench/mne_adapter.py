@@ -147,7 +147,7 @@ def timing(repeats):
     print(f"Epochs 100 x 1,000 x 64 (6 bad), minimum of {repeats}: mne {m:.3f} s; manifill first call (the map built) "
           f"{min(cold):.3f} s ({min(cold) / m:.2f}x), a later call with the same cap and bads (the map kept) "
           f"{min(warm):.3f} s ({min(warm) / m:.2f}x)")
-    to = mne.channels.make_standard_montage("standard_1020")
+    to = mne.channels.make_standard_montage("colin27_1020")
     cold, warm, theirs = [], [], []
     for _ in range(repeats):
         forget_maps()
@@ -159,7 +159,7 @@ def timing(repeats):
         ep.interpolate_to(to, method="spline")
         theirs.append(time.perf_counter() - t)
     m = min(theirs)
-    print(f"interpolate_to the same Epochs onto standard_1020 (94 channels): mne {m:.3f} s; manifill first call "
+    print(f"interpolate_to the same Epochs onto colin27_1020 (94 channels): mne {m:.3f} s; manifill first call "
           f"{min(cold):.3f} s ({min(cold) / m:.2f}x), later {min(warm):.3f} s ({min(warm) / m:.2f}x)")
 
 

@@ -182,7 +182,7 @@ def test_interpolate_to_keeps_the_other_channels_in_place_and_reads_the_library_
 @pytest.mark.parametrize("kind", ["epochs", "evoked"])
 def test_interpolate_to_an_affine_potential_with_the_thin_plate_spline(kind):
     info, on = on_scalp_info("biosemi32")
-    to = mne.channels.make_standard_montage("standard_1020")
+    to = mne.channels.make_standard_montage("colin27_1020")
     target = mne.create_info(to.ch_names, 500.0, "eeg")
     target.set_montage(to)
     T = locate_points(V, F, electrodes(target)[1], max_distance=0.03).points  # each at its closest point of the scalp
@@ -205,7 +205,7 @@ def test_interpolate_to_refuses_what_it_cannot_place():
     info, _ = on_scalp_info("biosemi32")
     ev = mne.EvokedArray(np.zeros((32, 3)), info)
     with pytest.raises(OptionError, match="not an mne.channels.DigMontage"):
-        interpolate_to(ev, "standard_1020")
+        interpolate_to(ev, "colin27_1020")
     ev.info["bads"] = list(info["ch_names"])
     with pytest.raises(OptionError, match="no good EEG channel"):
         interpolate_to(ev, mne.channels.make_standard_montage("biosemi64"))

@@ -109,7 +109,7 @@ def electrodes(info, picks=None):
     none = [n for n, p in zip(names, P) if not np.isfinite(p).all() or not np.any(p)]
     if none:
         raise OptionError(f"channel {none[0]!r} has no position ({len(none)} without); set a montage first "
-                          f"(inst.set_montage('standard_1020') or the digitisation)")
+                          f"(inst.set_montage('colin27_1020') or the digitisation)")
     frames = {c["coord_frame"] for c in chs}
     if frames != {mne.io.constants.FIFF.FIFFV_COORD_HEAD}:
         raise OptionError(f"the electrodes are in coordinate frame {sorted(frames)}, not the head frame; set the "
@@ -285,7 +285,7 @@ def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **option
     ----------
     inst : mne.io.Raw, mne.Epochs or mne.Evoked
     sensors : mne.channels.DigMontage
-        The target montage (e.g. ``mne.channels.make_standard_montage('standard_1020')``, or a cap's own), placed in
+        The target montage (e.g. ``mne.channels.make_standard_montage('colin27_1020')``, or a cap's own), placed in
         head coordinates by its fiducials as ``set_montage`` places it.
     surface, method, **options
         As :func:`interpolate_bads`.
@@ -298,7 +298,7 @@ def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **option
     """
     if not isinstance(sensors, mne.channels.DigMontage):
         raise OptionError(f"sensors is a {type(sensors).__name__}, not an mne.channels.DigMontage; pass a montage "
-                          f"(mne.channels.make_standard_montage('standard_1020'), or your cap's)")
+                          f"(mne.channels.make_standard_montage('colin27_1020'), or your cap's)")
     where = sensors.get_positions()["ch_pos"]
     names = list(where)
     if not names:

@@ -25,6 +25,14 @@ from manifill.surface.locate import locate_points
 MONTAGES = ("biosemi32", "biosemi64", "biosemi128")
 
 
+def cap(name, on):
+    """The montage ``name`` with its electrodes at ``on`` (head coordinates)."""
+    mon = mne.channels.make_standard_montage(name)
+    fid = mon.get_positions()
+    return mne.channels.make_dig_montage(ch_pos=dict(zip(mon.ch_names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
+                                         rpa=fid["rpa"], coord_frame="head")
+
+
 def montage_info(name, V, F, on_scalp):
     mon = mne.channels.make_standard_montage(name)
     info = mne.create_info(mon.ch_names, 500.0, "eeg")
@@ -33,11 +41,8 @@ def montage_info(name, V, F, on_scalp):
     if not on_scalp:
         return info, P
     on = locate_points(V, F, P, max_distance=0.05).points
-    fid = mon.get_positions()
-    cap = mne.channels.make_dig_montage(ch_pos=dict(zip(mon.ch_names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
-                                        rpa=fid["rpa"], coord_frame="head")
     info = mne.create_info(mon.ch_names, 500.0, "eeg")
-    info.set_montage(cap)
+    info.set_montage(cap(name, on))
     return info, on
 
 
@@ -90,14 +95,6 @@ def accuracy(name, methods, trials, on_scalp, model="infinite"):
     where = f"{'on the scalp' if on_scalp else 'as given'}, {model} model"
     print(f"{name} ({len(P)} channels, {trials} trials, {where}): mne "
           f"{rms['mne']:.4g}; {line}")
-
-
-def cap(name, on):
-    """The montage ``name`` with its electrodes at ``on`` (head coordinates)."""
-    mon = mne.channels.make_standard_montage(name)
-    fid = mon.get_positions()
-    return mne.channels.make_dig_montage(ch_pos=dict(zip(mon.ch_names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
-                                         rpa=fid["rpa"], coord_frame="head")
 
 
 def moved(source, dest, trials, model):

@@ -17,6 +17,14 @@ mne.set_log_level("ERROR")
 V, F = head_surface()
 
 
+def cap_montage(name, on):
+    """The montage ``name`` with its electrodes at ``on`` (head coordinates) and its own fiducials."""
+    mon = mne.channels.make_standard_montage(name)
+    fid = mon.get_positions()
+    return mne.channels.make_dig_montage(ch_pos=dict(zip(mon.ch_names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
+                                         rpa=fid["rpa"], coord_frame="head")
+
+
 def on_scalp_info(name="biosemi64"):
     """A montage whose electrodes sit on the shipped scalp (a cap on this head), in head coordinates."""
     mon = mne.channels.make_standard_montage(name)
@@ -24,11 +32,8 @@ def on_scalp_info(name="biosemi64"):
     info.set_montage(mon)
     _, P = electrodes(info)
     on = locate_points(V, F, P, max_distance=0.05).points
-    fid = mon.get_positions()
-    cap = mne.channels.make_dig_montage(ch_pos=dict(zip(mon.ch_names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
-                                        rpa=fid["rpa"], coord_frame="head")
     info = mne.create_info(mon.ch_names, 500.0, "eeg")
-    info.set_montage(cap)
+    info.set_montage(cap_montage(name, on))
     return info, on
 
 
@@ -146,14 +151,6 @@ def test_more_accurate_than_mne_s_spherical_spline_with_many_channels():
     ours = interpolate_bads(ev).data[bi]
     theirs = ev.copy().interpolate_bads().data[bi]
     assert np.sqrt(np.mean((ours - data[bi]) ** 2)) <= np.sqrt(np.mean((theirs - data[bi]) ** 2))
-
-
-def cap_montage(name, on):
-    """The montage ``name`` with its electrodes at ``on`` (head coordinates) and its own fiducials."""
-    fid = mne.channels.make_standard_montage(name).get_positions()
-    names = mne.channels.make_standard_montage(name).ch_names
-    return mne.channels.make_dig_montage(ch_pos=dict(zip(names, on)), nasion=fid["nasion"], lpa=fid["lpa"],
-                                         rpa=fid["rpa"], coord_frame="head")
 
 
 def test_interpolate_to_keeps_the_other_channels_in_place_and_reads_the_library_s_field():

@@ -149,7 +149,7 @@ class ScalpMap:
     def __init__(self, info, good, targets=(), *, surface=None, method="biharmonic", max_distance=MAX_DISTANCE,
                  **options):
         self.V, self.F = head_surface(surface)
-        self.good, (self.targets, where) = list(good), _targets(targets)
+        self.good, (self.targets, labels) = list(good), _targets(targets)
         _, P = electrodes(info, self.good)
         if len(self.good) < 4:
             raise SampleError(f"{len(self.good)} good EEG channels; a scalp map needs at least 4")
@@ -167,10 +167,8 @@ class ScalpMap:
         self.W = np.asarray(rec.matrix(form="operator") @ np.eye(len(P)))
         self.B = np.zeros((0, len(P)))
         if len(self.targets):
-            T = self.targets if where else electrodes(info, self.targets)[1]
-            names = (list(targets) if isinstance(targets, dict) else [f"target {i}" for i in range(len(T))]) if where \
-                else self.targets
-            loc = _on_scalp(self.V, self.F, T, names, max_distance)
+            T = electrodes(info, self.targets)[1] if labels is None else self.targets
+            loc = _on_scalp(self.V, self.F, T, self.targets if labels is None else labels, max_distance)
             self.B = np.einsum("tc,tck->tk", loc.bary, self.W[loc.corners])
 
     def apply(self, data):
@@ -180,16 +178,18 @@ class ScalpMap:
 
 
 def _targets(targets):
-    """``(names, False)`` or ``((t, 3) positions, True)``: the channels a map fills (a dict: its positions)."""
+    """``(names, None)`` or ``((t, 3) positions, their labels)``: the channels a map fills (a dict: positions by
+    name)."""
     if len(targets) == 0:
-        return [], False
+        return [], None
     arr = np.asarray(list(targets.values()) if isinstance(targets, dict) else targets)
     if arr.dtype.kind not in "fiu":
-        return [str(t) for t in targets], False
+        return [str(t) for t in targets], None
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise OptionError(f"targets of shape {arr.shape} are neither channel names nor (t, 3) positions; pass names "
                           f"of channels in info, or positions in head coordinates (metres)")
-    return arr.astype(np.float64), True
+    labels = list(targets) if isinstance(targets, dict) else [f"target {i}" for i in range(len(arr))]
+    return arr.astype(np.float64), labels
 
 
 def _on_scalp(V, F, P, names, max_distance):

@@ -1,6 +1,7 @@
 """The options several subcommands share, defined once."""
 
 from ..surface.curve_values import CURVE_VALUES
+from ..surface.options import BOUNDS_MODES
 from ..mesh.graph import DISTANCES
 from ..surface.harmonic import ON_EMPTY
 from ..mesh.laplacian import WEIGHTS
@@ -101,8 +102,12 @@ def check_workers(args):
 def energy_args(s):
     """--bounds (every method but rbf) and --smoothing (the energy methods and rbf)."""
     s.add_argument("--bounds", default=None, metavar="samples|LO,HI",
-                   help="the minimiser within these bounds ('samples': each field's sample range), not a clip; "
-                        "gvf-harmonic: curve values projected onto them, then the bounded fill")
+                   help="keep the field within these bounds ('samples': each field's sample range), as "
+                        "--bounds-mode says")
+    s.add_argument("--bounds-mode", choices=BOUNDS_MODES, default=None,
+                   help="exact (default with --bounds): the minimiser within the bounds, an active set (gvf-harmonic: "
+                        "curve values projected onto them, then the bounded fill); project: the field without bounds, "
+                        "then clipped onto them (one solve; any method)")
     s.add_argument("--smoothing", default=None, metavar="LAMBDA|auto",
                    help="energy methods and rbf: soft constraints with this lambda ('auto': generalised "
                         "cross-validation)")

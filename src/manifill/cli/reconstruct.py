@@ -47,6 +47,7 @@ def options_of(args):
     return configure(method=args.method, partition=args.partition, weights=args.weights, distance=args.distance,
                      levels=levels(args.levels), curve_values=args.curve_values, solver=args.solver,
                      on_empty=args.on_empty, duplicates=args.duplicates, bounds=bounds_arg(args.bounds),
+                     bounds_mode=getattr(args, "bounds_mode", None),
                      neighbours=getattr(args, "neighbours", None), barriers=barriers_arg(args),
                      smoothing=smoothing_arg(args.smoothing), check=True if getattr(args, "check", False) else None,
                      **uncertainty_opts(args))
@@ -177,6 +178,10 @@ def _summary(args, r, V, S):
               f"vertices, {pr['patches']} patches (largest {max(pr['patch_sizes'] or [0]):,})")
     if "harmonic" in rep:
         _fill_line(args, rep)
+    if rep.get("bounds", {}).get("mode") == "project":
+        b = rep["bounds"]
+        print(f"bounds: projected {sum(b['projected']):,} values onto them (largest overshoot before: "
+              f"{max(b['overshoot'], default=0.0):.4g})")
     if rep.get("rbf"):
         print(f"rbf: thin-plate spline through the sample positions ({rep['rbf']['dims']}-D)")
 

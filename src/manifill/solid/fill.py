@@ -25,9 +25,9 @@ from ..linalg.backends import SOLVERS
 from ..linalg.gridmg import GridMultigrid
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..memory import check_fits, lu_memory
-from ..mesh.tetmesh import tet_laplacian
+from ..surface.harmonic import HarmonicSolver
 from ..tolerances import TOL
-from ..validate import as_indices, as_mask, as_tets, as_values, as_voxels, check_option, unit_scale
+from ..validate import as_indices, as_mask, as_tets, as_values, as_voxels, check_option
 from .voxels import as_connectivity, as_spacing, stencil_weights, unit_spacing, voxel_components, voxel_laplacian
 
 __all__ = ["FILL_SOLVERS", "VoxelFill", "harmonic_fill", "tet_fill", "fill_memory", "tet_fill_memory"]
@@ -395,8 +395,6 @@ def tet_fill(V, T, idx, vals, *, weights="cotan", solver="auto", on_empty="error
     check_fits(tet_fill_memory(len(V), len(T), n_fixed, solver), f"the harmonic fill of {free:,} tet vertices "
                f"({solver})", f"use solver='amg' (CLI --fill-solver amg) or {coarser}" if factorised
                else f"use {coarser}")
-    # the stiffness has units of length: on V / s (s a power of two, 1 for the usual sizes) it is the
-    # same matrix divided by s, exactly, with the same solution and entries of about unit size
-    L = tet_laplacian(V / unit_scale(V), T, weights=weights)
-    return QuadraticSolver(L, idx, solver=solver, on_empty=on_empty, tol=tol, maxiter=maxiter,
-                           symmetric_pattern=True, what="the tet Laplacian").solve(vals)
+    # the one harmonic fill of tetrahedra (manifill.harmonic(V, T) is the same solver)
+    return HarmonicSolver(V, T, idx, weights=weights, solver=solver, on_empty=on_empty, tol=tol,
+                          maxiter=maxiter).solve(vals)

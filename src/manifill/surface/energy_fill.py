@@ -25,14 +25,13 @@ from ..errors import OptionError, SampleError, SolveError
 from ..linalg.active_set import as_bounds as bounds_per_field
 from ..linalg.active_set import check_samples
 from ..linalg.backends import AUTO_DIRECT_FIELDS, AUTO_DIRECT_MAX, auto_backend, make_linear_solver
-from ..linalg.energies import polyharmonic_energy
 from ..linalg.quadratic import QuadraticSolver
 from ..linalg.smoothing import smooth
 from ..mesh.topology import pattern_components
 from ..tolerances import TOL
 from .options import FitOptions
 from .points import eliminate_rows
-from .polyharmonic import PolyharmonicSolver
+from .polyharmonic import PolyharmonicSolver, energy_matrix
 from .prepared import cached
 
 __all__ = ["ENERGY_METHODS", "energy_fill", "as_bounds", "smoothing_value"]
@@ -203,14 +202,14 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
 def _energy(surface, weights, k):
     L = surface.laplacian(weights)
     if k == 1:
-        return L
+        return energy_matrix(L, None, 1)
     if surface.mass is None:
         raise OptionError(f"the {'bi' if k == 2 else 'tri'}harmonic energy needs triangles (a mass matrix); "
                           f"a digital surface has none: use method='harmonic' or a tetrahedral solid")
 
     # the Voronoi mass, as igl.harmonic(V, F, b, bc, k) uses (manifill.surface.polyharmonic.biharmonic's default);
     # a point cloud's own (its fans' mixed areas)
-    return polyharmonic_energy(L, surface.mass("voronoi", weights), k)
+    return energy_matrix(L, surface.mass("voronoi", weights), k)
 
 
 def _smoothed(A, n, idx, vals, smoothing, sample_weights, k, Aeq=None, beq=None):

@@ -6,14 +6,19 @@ run (:meth:`manifill.surface.methods.base.Method.reconstruct`): the method runs 
 (for the paper's pipeline: Steps 2-3, Step 1, Step 4, Steps 5-6) into a
 :class:`~manifill.surface.methods.base.Run`, which then adds what every method shares --
 the std when asked, the trust mask, the overshoot, the points' report, the timings -- and
-gives the :class:`~manifill.surface.reconstruction.Reconstruction`.
+gives the :class:`~manifill.surface.reconstruction.Reconstruction`. With ``bounds_mode='project'`` the
+method fills without bounds and :func:`project` clips its field onto them: any method, one solve.
 """
 
+from dataclasses import replace
 
-from .methods.base import Run
+import numpy as np
+
+from .energy_fill import as_bounds
+from .methods.base import Run, overshoot_by_field
 from .methods.registry import configure, method_of
 
-__all__ = ["reconstruct_surface"]
+__all__ = ["reconstruct_surface", "project"]
 
 
 def reconstruct_surface(surface, idx, vals, *, options=None, points=None, fields=None, prepared=None, progress=None,
@@ -74,7 +79,56 @@ def reconstruct_surface(surface, idx, vals, *, options=None, points=None, fields
     """
     options = configure(options, **keywords)
     method = method_of(options.method)
+    lohi, sample_vals = None, vals if points is None else points.values
+    if options.fit.projected:  # the method fills without bounds; its field is projected onto them after
+        lohi = as_bounds(options.fit.bounds, sample_vals)
+        options = replace(options, fit=replace(options.fit, bounds=None))
     run = Run(surface, idx, vals, options, points=points, fields=vals.shape[1] if fields is None else fields,
               prepared=prepared, progress=progress, seconds={} if seconds is None else seconds,
               reconstruct=reconstruct_surface, lookup=method_of)
-    return method.reconstruct(run)
+    result = method.reconstruct(run)
+    return result if lohi is None else project(result, *lohi, sample_vals)
+
+
+def project(result, lo, hi, sample_vals):
+    """Clip a result's fields onto ``[lo, hi]`` (``bounds_mode='project'``) and say so in its report.
+
+    The values that left the bounds, and only those, are set to the bound they crossed; NaN stays NaN. The
+    report's ``bounds`` holds the mode, the bounds, the values projected per field and the largest distance
+    beyond the bounds before (``overshoot``); ``report['overshoot']`` is measured again. Samples inside faces stay
+    exact where their face's corners stayed within the bounds; a point whose face had a corner beyond them moves
+    with it (``points_moved``, ``points_largest_move``: at most that corner's overshoot). The exact minimiser
+    (``bounds_mode='exact'``) keeps every point.
+
+    Parameters
+    ----------
+    result : Reconstruction
+        Values ``(n, p)``.
+    lo, hi : (p,) numpy arrays
+        Per field (``-inf``/``inf`` where open).
+    sample_vals : (k, p) numpy array
+        The sample values (``report['overshoot']`` is measured against their range again).
+
+    Returns
+    -------
+    Reconstruction
+        The same object, its values clipped.
+    """
+    X = result.values
+    at = None if result.points is None else result.points.interpolate(X)
+    with np.errstate(invalid="ignore"):
+        below, above = X < lo, X > hi
+        before = np.maximum(np.fmax.reduce(np.where(above, X - hi, 0.0), axis=0),
+                            np.fmax.reduce(np.where(below, lo - X, 0.0), axis=0))
+    np.clip(X, lo, hi, out=X)
+    result.report["bounds"] = {"mode": "project", "lo": lo.tolist(), "hi": hi.tolist(),
+                               "projected": (below.sum(axis=0) + above.sum(axis=0)).tolist(),
+                               "overshoot": before.tolist()}
+    if at is not None:  # a point whose face has a corner beyond the bounds moves with that corner
+        moved = np.abs(result.points.interpolate(X) - at)
+        moved = moved.reshape(len(moved), -1).max(axis=1)
+        result.report["bounds"]["points_moved"] = int((moved > 0).sum())
+        result.report["bounds"]["points_largest_move"] = float(moved.max(initial=0.0))
+    d = overshoot_by_field(X, sample_vals)
+    result.report["overshoot"] = float(np.nanmax(d)) if np.isfinite(d).any() else 0.0
+    return result

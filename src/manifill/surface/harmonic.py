@@ -18,7 +18,7 @@ from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..mesh.laplacian import WEIGHTS, assemble_laplacian
 from ..mesh.tetmesh import WEIGHTS as TET_WEIGHTS
 from ..mesh.tetmesh import assemble_tet_laplacian, cell_width
-from ..validate import as_indices, as_laplacian, as_mesh, as_tets, check_option
+from ..validate import as_indices, as_laplacian, as_mesh, as_tets, check_option, unit_scale
 
 __all__ = ["HarmonicSolver", "harmonic", "ON_EMPTY"]
 
@@ -111,7 +111,9 @@ class HarmonicSolver(QuadraticSolver):
             V, F = as_mesh(V, F, allow_degenerate=weights in ("uniform", "robust"))
         idx = as_indices(idx, len(V), what="idx")
         t1 = time.perf_counter()
-        L = assemble_tet_laplacian(V, F, weights) if tets else assemble_laplacian(V, F, weights)
+        # a tet stiffness has units of length: on V / s (s a power of two, 1 for the usual sizes) it is the same
+        # matrix divided by s, exactly, with the same solution and entries of about unit size
+        L = assemble_tet_laplacian(V / unit_scale(V), F, weights) if tets else assemble_laplacian(V, F, weights)
         t2 = time.perf_counter()
         super().__init__(L, idx, solver=solver, on_empty=on_empty, iteration=iteration, tol=tol, maxiter=maxiter,
                          symmetric_pattern=weights in ("uniform", "cotan"), what="L")

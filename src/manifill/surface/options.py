@@ -8,7 +8,7 @@ its group and nothing copies the options by name again. The groups:
   ``weights``, ``distance``, ``curve_values``, ``solver``, ``iteration``, ``init``,
   ``seed``, ``tol``, ``maxiter``, ``on_empty``;
 - ``step1`` (:class:`CheckOptions`): Step 1's ``levels`` and whether it runs (``check``);
-- ``fit`` (:class:`FitOptions`): ``bounds``, ``smoothing``, ``sample_weights``;
+- ``fit`` (:class:`FitOptions`): ``bounds``, ``bounds_mode``, ``smoothing``, ``sample_weights``;
 - ``points`` (:class:`PointOptions`): how samples are read -- ``duplicates``,
   ``max_distance``;
 - ``uq`` (:class:`UncertaintyOptions`): the Gaussian process and the std -- ``gp``,
@@ -35,12 +35,14 @@ from .harmonic import ON_EMPTY
 from .partition import PARTITIONS
 
 __all__ = ["Options", "FillOptions", "CheckOptions", "FitOptions", "PointOptions", "UncertaintyOptions",
-           "DUPLICATES", "UNTRUSTED", "OPTION_NAMES"]
+           "DUPLICATES", "UNTRUSTED", "BOUNDS_MODES", "OPTION_NAMES"]
 
 #: What several samples on one vertex with different values do: refuse, or average.
 DUPLICATES = ("error", "mean")
 #: What ``untrusted=`` does where the std exceeds the threshold: keep the value (the mask says), or NaN.
 UNTRUSTED = ("mask", "nan")
+#: How ``bounds`` are kept: the minimiser within them (an active set), or the unbounded field projected onto them.
+BOUNDS_MODES = ("exact", "project")
 
 
 @dataclass(frozen=True)
@@ -91,11 +93,22 @@ class CheckOptions:
 
 @dataclass(frozen=True)
 class FitOptions:
-    """How the samples bind the field: ``bounds`` on the values, ``smoothing`` (soft constraints), their weights."""
+    """How the samples bind the field: ``bounds`` on the values and how they are kept (``bounds_mode``),
+    ``smoothing`` (soft constraints), their weights."""
 
     bounds: object = None
+    bounds_mode: object = None  # None: 'exact' (a preset may set 'project')
     smoothing: object = None
     sample_weights: object = None
+
+    def validate(self):
+        if self.bounds_mode is not None:
+            check_option("bounds_mode", self.bounds_mode, BOUNDS_MODES)
+
+    @property
+    def projected(self):
+        """Whether the bounds are kept by projecting the unbounded field onto them (any method with values)."""
+        return self.bounds is not None and self.bounds_mode == "project"
 
 
 @dataclass(frozen=True)

@@ -36,9 +36,9 @@ from ..mesh.tetmesh import assemble_tet_laplacian, cell_width, tet_mass_matrix
 from ..errors import MeshError
 from ..memory import available_bytes, lu_memory
 from ..tolerances import TOL
-from ..validate import as_indices, as_mesh, as_tets, bbox_diagonal, check_option
+from ..validate import as_indices, as_mesh, as_tets, check_option, unit_scale
 
-__all__ = ["PolyharmonicSolver", "biharmonic", "SOLVERS", "WEIGHTS", "MASS"]
+__all__ = ["PolyharmonicSolver", "biharmonic", "energy_matrix", "polyharmonic_matrix", "SOLVERS", "WEIGHTS", "MASS"]
 
 #: Solvers of the reduced system (see :mod:`manifill.linalg.backends`).
 SOLVERS = ("auto", "direct", "amg")
@@ -48,9 +48,48 @@ WEIGHTS = ("cotan", "uniform")
 
 
 def _unit(V):
-    """Positions centred and scaled to unit bounding-box diagonal (the solution does not depend on it)."""
-    d = bbox_diagonal(V)
-    return (V - V.mean(axis=0)) / (d if d > 0 else 1.0)
+    """Positions divided by a power of two to about unit size (exact: the solution does not change).
+
+    Lengths, areas and volumes on ``V / s`` are those on ``V`` over ``s``, ``s**2``, ``s**3`` to the bit, so the
+    energy here is a power of two times the one a :class:`~manifill.surface.surface.Surface` of the same mesh gives
+    (:func:`manifill.surface.energy_fill.energy_fill`), and the two minimisers agree to the last bit.
+    """
+    return V / unit_scale(V)
+
+
+def energy_matrix(L, M, k):
+    """The k-harmonic energy ``L (M^-1 L)^(k-1)`` of a stiffness and a lumped mass: the one place it is composed.
+
+    Every k-harmonic fill builds its energy here: :func:`biharmonic` and :class:`PolyharmonicSolver` (triangles or
+    tetrahedra) and the methods ``harmonic``, ``biharmonic``, ``triharmonic`` (a mesh, a point cloud:
+    :func:`manifill.surface.energy_fill.energy_fill`).
+
+    Parameters
+    ----------
+    L : (n, n) scipy sparse matrix
+        The stiffness (a Laplacian).
+    M : (n, n) scipy sparse matrix or None
+        The lumped mass (diagonal); not used for ``k = 1``.
+    k : int
+        The order.
+
+    Returns
+    -------
+    (n, n) scipy sparse matrix
+        ``L`` itself for ``k = 1``.
+
+    Raises
+    ------
+    MeshError
+        A vertex with no area or volume around it (``k >= 2`` divides by it).
+    """
+    if k == 1:
+        return L
+    if (M.diagonal() <= 0).any():
+        raise MeshError(f"vertex {int(np.flatnonzero(M.diagonal() <= 0)[0])} has zero area or volume around it, "
+                        f"so the {'bi' if k == 2 else 'k-'}harmonic energy (which divides by it) is undefined; remove "
+                        f"degenerate cells (or points that coincide)")
+    return polyharmonic_energy(L, M, k)
 
 
 def polyharmonic_matrix(V, F, *, k=2, weights="cotan", mass=None):
@@ -95,10 +134,7 @@ def polyharmonic_matrix(V, F, *, k=2, weights="cotan", mass=None):
         V, F = as_mesh(V, F, allow_degenerate=weights == "uniform")
         U = _unit(V)
         L, M = assemble_laplacian(U, F, weights), mass_matrix(U, F, mass=mass)
-    if (M.diagonal() <= 0).any():
-        raise MeshError(f"vertex {int(np.flatnonzero(M.diagonal() <= 0)[0])} has zero area or volume around it, "
-                        f"so the biharmonic energy (which divides by it) is undefined; remove degenerate cells")
-    return polyharmonic_energy(L, M, k)
+    return energy_matrix(L, M, k)
 
 
 class PolyharmonicSolver(QuadraticSolver):
@@ -222,7 +258,9 @@ class PolyharmonicSolver(QuadraticSolver):
         tol : float
         maxiter : int
         """
-        if solver == "auto" and direct_factoriser() == "pardiso":
+        if k == 1:  # the harmonic fill's own policy (QuadraticSolver's auto), as HarmonicSolver's
+            pass
+        elif solver == "auto" and direct_factoriser() == "pardiso":
             avail = available_bytes()
             fits = avail is None or lu_memory(free, cls.BIHARMONIC_ROW * free) <= 0.5 * avail
             solver = "direct" if k != 2 or free <= cls.AUTO_DIRECT_MAX or fits else "amg"

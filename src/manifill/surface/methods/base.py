@@ -75,9 +75,9 @@ class Method:
     def check(self, options):
         """Refuse an option this method cannot use (:class:`~manifill.errors.OptionError`, one line)."""
         fit = options.fit
-        if fit.bounds is not None and not self.can_bound:
+        if fit.bounds is not None and not fit.projected and not self.can_bound:
             raise OptionError(f"method={self.name!r} takes no bounds; pass bounds=None, or use a method that holds "
-                              f"them (e.g. method='biharmonic', bounds='samples')")
+                              f"them (e.g. method='biharmonic', bounds='samples'), or bounds_mode='project'")
         if (fit.smoothing is not None or fit.sample_weights is not None) and not self.can_smooth:
             raise OptionError(f"smoothing and sample_weights apply to the energy methods (harmonic, biharmonic, "
                               f"triharmonic) and rbf, not to method={self.name!r}; pick one of those")

@@ -7,20 +7,17 @@ Three backends, each an object built once from ``A`` (the expensive part) whose
     A sparse factorisation (SuperLU, or Pardiso: :mod:`manifill.linalg.factorise`).
     Exact to rounding; best for small systems and for many right-hand sides.
 ``amg``
-    Conjugate gradients preconditioned by one cycle of smoothed-aggregation
-    algebraic multigrid (built on pyamg's kernels). Linear in the size of the
-    system; independent blocks of it (patches cut off by the fixed vertices)
-    are solved side by side in threads.
+    CG preconditioned by one cycle of smoothed-aggregation AMG (pyamg's kernels), linear in the
+    size; independent blocks side by side in threads. With candidates (a k-harmonic energy's
+    linear functions): :class:`manifill.linalg.amg_candidates.CandidateAMG`.
 ``iterate``
     The paper's own scheme: every unknown replaced by the weighted average of its
     neighbours, sweep after sweep (Jacobi, or Gauss-Seidel which uses new values
     at once), until the largest change in a sweep is below a tolerance.
 
-A backend is any object with ``name``, ``setup_seconds`` and ``solve(R, x0)``
-returning ``(X, info)``; the solve core
-(:class:`manifill.linalg.quadratic.QuadraticSolver`) builds one of these three
-with :func:`make_linear_solver`, and the voxel fill uses a fourth, the
-matrix-free :class:`manifill.linalg.gridmg.GridMultigrid`.
+A backend is any object with ``name``, ``setup_seconds`` and ``solve(R, x0)`` returning ``(X, info)``; the
+solve core (:class:`manifill.linalg.quadratic.QuadraticSolver`) builds one with :func:`make_linear_solver`; the
+voxel fill uses the matrix-free :class:`manifill.linalg.gridmg.GridMultigrid`.
 """
 
 import time
@@ -34,13 +31,13 @@ from ..memory import available_bytes, check_fits, lu_memory
 from ..tolerances import TOL
 from ..validate import check_option
 from .amg import Multigrid, canonical_csr, independent_blocks
+from .amg_candidates import CandidateAMG
 from .factorise import DIRECT_ENV, direct_factoriser, factorise
 from .pcg import nrm2
 from .threads import workers
 
 __all__ = ["SOLVERS", "ITERATIONS", "AUTO_DIRECT_FIELDS", "auto_backend", "solve_block",
-           "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver",
-           "direct_factoriser", "DIRECT_ENV"]
+           "make_linear_solver", "DirectSolver", "AMGSolver", "IterateSolver", "direct_factoriser", "DIRECT_ENV"]
 
 SOLVERS = ("auto", "direct", "amg", "iterate")
 ITERATIONS = ("gauss-seidel", "jacobi")
@@ -51,10 +48,9 @@ AUTO_DIRECT_MAX = 20_000
 #: one factorisation and a pair of triangular solves per field beat a CG run per field (measured at 163,842
 #: vertices: factorising the pipeline's fill ~1 s, 11-20 ms per field, against ~0.15 s per field for AMG).
 AUTO_DIRECT_FIELDS = 8
-#: Right-hand sides are handed to the factorisation in blocks of at most this many bytes: SuperLU's solve
-#: slows down tenfold per column once the block leaves the cache (measured at 150k unknowns: 10-20 ms per column
-#: in blocks of 8-32 columns, 100 ms per column in one block of 100). Pardiso takes 4x larger blocks (163k
-#: unknowns, Cholesky factor: 43 ms per column in blocks of 12, 34 in blocks of 51, 32 in blocks of 64).
+#: Right-hand sides go to the factorisation in blocks of at most this many bytes: SuperLU's solve is 10x slower per
+#: column out of cache (150k unknowns: 10-20 ms per column in blocks of 8-32, 100 ms in one of 100); Pardiso takes
+#: 4x larger blocks (163k unknowns, Cholesky: 43 ms per column in blocks of 12, 32 in blocks of 64).
 SOLVE_BLOCK_BYTES = 16 * 2**20
 
 
@@ -456,7 +452,7 @@ def auto_backend(unknowns, nnz, fields=1, dim=2, largest=None, spd=False, rows=F
 
 
 def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel", tol=None, maxiter=None,
-                       factoriser=None, spd=False):
+                       factoriser=None, spd=False, candidates=None):
     """Build the solver object for ``A`` named by ``solver``.
 
     Parameters
@@ -478,10 +474,12 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
     spd : bool, optional
         ``A`` is symmetric positive definite, as every caller's but a KKT system's is
         (``direct``: Pardiso may factorise it as such).
+    candidates : (N, c) numpy array, optional
+        ``amg``: vectors ``A`` nearly annihilates (:class:`~manifill.linalg.amg_candidates.CandidateAMG`).
 
     Returns
     -------
-    DirectSolver or AMGSolver or IterateSolver
+    DirectSolver or AMGSolver or CandidateAMG or IterateSolver
         With ``.solve(R, x0=None)`` returning ``(X, info)``; ``.setup_seconds``
         records the set-up time.
     """
@@ -492,6 +490,8 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
         solver = "direct" if A.shape[0] <= AUTO_DIRECT_MAX else "amg"
     if solver == "direct":
         obj = DirectSolver(A, factoriser, spd)
+    elif solver == "amg" and candidates is not None:
+        obj = CandidateAMG(A, candidates, rtol=rtol, maxiter=maxiter)
     elif solver == "amg":
         obj = AMGSolver(A, rtol=rtol, maxiter=maxiter)
     else:

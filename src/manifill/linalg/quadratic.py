@@ -100,6 +100,9 @@ class QuadraticSolver:
     factoriser : {None, 'superlu', 'pardiso', 'cholesky'}, optional
         What factorises for ``direct`` (None: :func:`manifill.linalg.factorise.factorise`'s choice);
         many right-hand sides on small blocks are faster with SuperLU.
+    candidates : (n, c) numpy array, optional
+        Besides the constants, vectors ``A`` nearly annihilates (the positions, for a k-harmonic energy):
+        ``amg`` then aggregates with them (:class:`manifill.linalg.amg_candidates.CandidateAMG`).
 
     Attributes
     ----------
@@ -154,13 +157,14 @@ class QuadraticSolver:
     """
 
     def __init__(self, A, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None,
-                 maxiter=None, symmetric_pattern=False, Aeq=None, what="A", factoriser=None):
+                 maxiter=None, symmetric_pattern=False, Aeq=None, what="A", factoriser=None, candidates=None):
         check_option("on_empty", on_empty, ON_EMPTY + ("solve",))
         A = as_laplacian(A, what=what)
         if Aeq is not None:
             Aeq = self._equality_rows(Aeq, A.shape[0], solver)
         self._options = {"solver": solver, "on_empty": on_empty, "iteration": iteration, "tol": tol,
-                         "maxiter": maxiter, "symmetric_pattern": symmetric_pattern, "factoriser": factoriser}
+                         "maxiter": maxiter, "symmetric_pattern": symmetric_pattern, "factoriser": factoriser,
+                         "candidates": candidates}
         if Aeq is not None and np.size(idx) == 0:  # the rows alone may anchor every component
             idx = np.zeros(0, dtype=np.int64)
         else:
@@ -217,7 +221,7 @@ class QuadraticSolver:
         return Aeq
 
     def _reduce(self, A, idx, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None, maxiter=None,
-                symmetric_pattern=False, Aeq=None, factoriser=None):
+                symmetric_pattern=False, Aeq=None, factoriser=None, candidates=None):
         """The Dirichlet reduction: components, ``A_II``, ``A_Ib``, the backend, the report."""
         n = A.shape[0]
         self.idx = idx
@@ -286,7 +290,9 @@ class QuadraticSolver:
         t3 = time.perf_counter()
         try:
             self._solver = make_linear_solver(K, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter,
-                                              factoriser=factoriser, spd=Aeq is None)  # KKT: indefinite
+                                              factoriser=factoriser, spd=Aeq is None,  # KKT: indefinite
+                                              candidates=None if candidates is None or Aeq is not None
+                                              else np.column_stack([np.ones(N), candidates[self.unknown]]))
         except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
             if Aeq is None:
                 raise

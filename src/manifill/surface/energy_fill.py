@@ -31,7 +31,7 @@ from ..mesh.topology import pattern_components
 from ..tolerances import TOL
 from .options import FitOptions
 from .points import eliminate_rows
-from .polyharmonic import PolyharmonicSolver, energy_matrix
+from .polyharmonic import PolyharmonicSolver, energy_matrix, positions
 from .prepared import cached
 
 __all__ = ["ENERGY_METHODS", "energy_fill", "as_bounds", "smoothing_value"]
@@ -84,7 +84,7 @@ def as_bounds(bounds, vals):
 
 
 def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_empty="error", fit=None, rows=None,
-                fields=None, prepared=None, **settings):
+                fields=None, prepared=None, energy=None, **settings):
     """Minimise the k-harmonic energy on a Surface with the samples as constraints.
 
     Parameters
@@ -117,6 +117,10 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     fields : int, optional
         How many fields will share these samples (default: ``vals``' columns); with
         many, ``solver='auto'`` factorises larger systems too.
+    energy : callable, optional
+        ``energy(surface)``: another energy matrix of order ``k`` (the Hessian energies,
+        :mod:`manifill.mesh.hessian`, with ``k = 2``) in place of the k-harmonic one; the solver policy,
+        bounds and smoothing are those of order ``k``.
     prepared : Prepared, optional
         Keeps the energy and the solve core (its factorisation or hierarchy) for the
         next call with the same samples (:mod:`manifill.surface.prepared`); the bounded
@@ -144,7 +148,7 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     tol, maxiter = settings.pop("tol", None), settings.pop("maxiter", None)
     if settings:
         raise OptionError(f"energy_fill takes no setting {next(iter(settings))!r}; pass tol or maxiter")
-    A = cached(prepared, "energy matrix", lambda: _energy(surface, weights, k))
+    A = cached(prepared, "energy matrix", lambda: _energy(surface, weights, k) if energy is None else energy(surface))
     fields = vals.shape[1] if fields is None else fields
     lohi = as_bounds(bounds, vals if Aeq is None else np.vstack([vals, beq]))
     if smoothing is not None:
@@ -176,7 +180,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
                                  symmetric_pattern=weights in ("uniform", "cotan"))
         qs = cached(prepared, ("energy", backend), lambda: QuadraticSolver(
             A, idx, solver=backend, on_empty=on_empty, tol=tol, maxiter=maxiter,
-            symmetric_pattern=weights in ("uniform", "cotan"), Aeq=Aeq, what="the energy"))
+            symmetric_pattern=weights in ("uniform", "cotan"), Aeq=Aeq, what="the energy",
+            candidates=positions(surface.V, k)))
         X = qs.solve(vals, beq=beq) if lohi is None else qs.solve(vals, beq=beq, lo=lohi[0], hi=lohi[1])
         if Aeq is not None:
             X = _refine(qs, X, vals, beq)

@@ -28,6 +28,8 @@ class Energy(Method):
     can_smooth = True
     at_points = True
     gives_std = True
+    #: ``energy_of(surface)``: the energy matrix, where it is not the k-harmonic one (the Hessian energies)
+    energy_of = None
 
     def __init__(self, name, k, summary):
         self.name, self.k, self.summary = name, k, summary
@@ -43,7 +45,7 @@ class Energy(Method):
     def fill(self, run):
         o, points = run.options, run.points
         run.step1(self)
-        if self.k == 1 and o.fit.bounds is None and o.fit.smoothing is None and not (points and points.inside):
+        if self.k == 1 and self.energy_of is None and o.fit.bounds is None and o.fit.smoothing is None and not (points and points.inside):
             # the harmonic fill with the samples (or the points' vertices) fixed: Steps 5-6 on their own
             b, bc = (run.idx, run.vals) if points is None else (points.idx, points.vals)
             return harmonic_fill(run, b, bc), None
@@ -56,7 +58,7 @@ class Energy(Method):
             values, run.report["harmonic"] = energy_fill(
                 run.surface, idx, vals, k=self.k, weights=f.weights, solver=f.solver, on_empty=f.on_empty,
                 fit=replace(o.fit, sample_weights=w), rows=None if Aeq is None else (Aeq, beq), fields=run.fields,
-                prepared=run.prepared, tol=f.tol, maxiter=f.maxiter)
+                prepared=run.prepared, tol=f.tol, maxiter=f.maxiter, energy=self.energy_of)
         return values, None
 
     def uncertainty(self, run, values):

@@ -21,6 +21,7 @@ from ...linalg.gp import GPOptions, as_gp_options
 from .auto import AUTO
 from .default import DEFAULT
 from .energy import BIHARMONIC, HARMONIC, TRIHARMONIC
+from .hessian import HESSIAN, HESSIAN_CURVED
 from .gvf import GVF
 from .matern import GP
 from .pipeline import PIPELINE
@@ -29,7 +30,8 @@ from .thin_plate import RBF
 __all__ = ["METHODS", "PRESETS", "method_of", "configure", "names"]
 
 #: Every method by name, in the order the docs list them.
-METHODS = {m.name: m for m in (PIPELINE, HARMONIC, BIHARMONIC, TRIHARMONIC, GVF, RBF, GP, AUTO)}
+METHODS = {m.name: m for m in (PIPELINE, HARMONIC, BIHARMONIC, TRIHARMONIC, HESSIAN, HESSIAN_CURVED, GVF, RBF, GP,
+                               AUTO)}
 #: Named presets: ``method=None`` is ``'default'``.
 PRESETS = {DEFAULT.name: DEFAULT}
 

@@ -127,6 +127,8 @@ def main(argv=None):
     ap.add_argument("--out", default="docs", help="folder for benchmarks.md and benchmarks/*.png (default: docs)")
     ap.add_argument("--cases", default=None,
                     help="accuracy: comma-separated case keys to run (default: all), e.g. head-eeg,sphere-noisy")
+    ap.add_argument("--methods", default=None,
+                    help="accuracy: comma-separated short names of the methods to run (default: all)")
     ap.add_argument("--save", default=None, help="also write the raw results to this JSON file")
     ap.add_argument("--load", default=None,
                     help="comma-separated JSON files of earlier --save runs: merge them (accuracy cases in the "
@@ -151,7 +153,8 @@ def main(argv=None):
         if loaded is not None:
             acc = loaded["accuracy"]
         else:
-            acc = accuracy.run_accuracy(args.smoke, log=log, only=args.cases.split(",") if args.cases else None)
+            acc = accuracy.run_accuracy(args.smoke, log=log, only=args.cases.split(",") if args.cases else None,
+                                        methods=args.methods.split(",") if args.methods else None)
         for p in accuracy.plot(acc, png):
             log(f"  wrote {p}")
         body += accuracy.markdown(acc, "benchmarks")

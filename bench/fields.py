@@ -289,8 +289,10 @@ def cases(smoke=False, log=print):
     out = [*sphere_cases(lv), u_case(0.1 if smoke else 0.02), airplane_case(0 if smoke else 2),
            ant_case(0 if smoke else 2), more.noisy_case(lv), more.globe_case(lv)]
     notes = []
+    out.append(more.cap_case(lv))
     try:
         out.append(more.head_case(head))
+        out.append(more.scalp_case(head))
     except ImportError as exc:
         notes.append(f"case head-eeg skipped: mne is not installed ({exc.name or exc}); pip install mne")
         log("  " + notes[-1])

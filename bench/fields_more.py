@@ -9,6 +9,12 @@
     channels divided by 255) of pyvista's shipped ``2k_earth_daymap.jpg``
     (2048 x 1024, equirectangular) at each vertex's longitude and latitude,
     bilinear between pixel centres (periodic in longitude): a rough real field.
+``cap-dipoles`` (open)
+    The unit icosphere cut at ``z > -0.2`` (one boundary loop); the field is the potential of two
+    current dipoles at depth 0.5 (:data:`CAP_DIPOLES`, the head's formula on the unit sphere).
+``scalp-eeg`` (open)
+    ``head-eeg``'s head cut 3 mm below its lowest electrode (the base gone): a scalp with a rim, the same montages
+    and dipoles; errors over every vertex of the scalp.
 ``head-eeg``
     A closed head-like surface: the unit icosphere's directions ``u`` mapped to
     an ellipsoid of semi-axes 7.5 cm (left-right, x), 9.5 cm (back-front, y)
@@ -34,7 +40,8 @@ import numpy as np
 
 from .fields import Case, smooth_field
 
-__all__ = ["noisy_case", "globe_case", "head_case", "head_surface", "dipole_potential", "MONTAGES"]
+__all__ = ["noisy_case", "globe_case", "head_case", "head_surface", "dipole_potential", "MONTAGES", "cap_case",
+           "scalp_case"]
 
 NOISE = 0.05  # standard deviation of the sample noise, as a fraction of the field's range
 MONTAGES = ("biosemi32", "biosemi64", "GSN-HydroCel-128")
@@ -171,3 +178,47 @@ def head_case(level):
                 f"{level} ({len(V):,} vertices)",
                 "potential of three current dipoles inside the head, infinite homogeneous medium (closed form)",
                 V, F, dipole_potential(V), layouts=layouts, notes=notes)
+
+
+CAP_Z = -0.2
+CAP_DIPOLES = (  # (position, moment) inside the unit sphere
+    (np.array([0.25, 0.10, 0.40]), np.array([0.0, 1.0, 0.5])),
+    (np.array([-0.30, -0.20, 0.25]), np.array([0.6, 0.0, 1.0])),
+)
+
+
+def _cut(V, F, keep_vertex):
+    """The faces whose corners all pass ``keep_vertex``, renumbered: ``(V, F, old index of each vertex)``."""
+    F = F[keep_vertex[F].all(axis=1)]
+    used = np.unique(F)
+    new = np.full(len(V), -1)
+    new[used] = np.arange(used.size)
+    return V[used], new[F], used
+
+
+def cap_case(level):
+    """An open cap of the unit sphere with a two-dipole potential (see the module docstring)."""
+    from manifill.mesh.shapes import icosphere
+
+    U, F = icosphere(level)
+    V, F, _ = _cut(U, F, U[:, 2] > CAP_Z)
+    truth = np.zeros(len(V))
+    for r0, p in CAP_DIPOLES:
+        d = V - r0
+        truth += (d @ p) / np.linalg.norm(d, axis=1) ** 3
+    return Case("cap-dipoles", "Open cap: two dipoles' potential on a sphere cut at z > -0.2",
+                f"icosphere level {level} cut at z > {CAP_Z} ({len(V):,} vertices, one boundary loop)",
+                "potential of two current dipoles at depth 0.5 (closed form)", V, F, truth)
+
+
+def scalp_case(level):
+    """``head-eeg``'s head cut 3 mm below its lowest electrode: an open scalp (needs mne)."""
+    head = head_case(level)
+    lowest = min(head.V[idx, 2].min() for _, idx in head.layouts.values())
+    V, F, old = _cut(head.V, head.F, head.V[:, 2] > lowest - 0.003)
+    new = np.full(len(head.V), -1)
+    new[old] = np.arange(old.size)
+    layouts = {k: (name, np.sort(new[idx])) for k, (name, idx) in head.layouts.items()}
+    return Case("scalp-eeg", "EEG on an open scalp: the head cut 3 mm below the lowest electrode",
+                f"head-eeg's surface cut at z > {lowest - 0.003:.3f} m ({len(V):,} vertices, one rim)",
+                head.field, V, F, head.truth[old], layouts=layouts, notes=head.notes[:1])

@@ -66,13 +66,14 @@ def _manifill(**kw):
     return fn
 
 
-def _igl_harmonic(k):
+def _igl_harmonic(k, clip=False):
     def fn(V, F, idx, vals):
         import igl
 
         x = igl.harmonic(V, np.ascontiguousarray(F, dtype=np.int64), np.ascontiguousarray(idx, dtype=np.int64),
                          np.ascontiguousarray(vals, dtype=np.float64)[:, None], k)
-        return np.asarray(x).ravel()
+        x = np.asarray(x).ravel()
+        return np.clip(x, np.min(vals), np.max(vals)) if clip else x
 
     return fn
 
@@ -209,6 +210,16 @@ METHODS = [
     Method("manifill biharmonic (point constraints)", "manifill", _manifill(method="biharmonic"), "mf biharmonic"),
     Method("manifill biharmonic, bounds=samples", "manifill", _manifill(method="biharmonic", bounds="samples"),
            "mf bounded biharmonic"),
+    Method("manifill biharmonic, bounds=samples, projected", "manifill",
+           _manifill(method="biharmonic", bounds="samples", bounds_mode="project"), "mf projected biharmonic"),
+    Method("manifill triharmonic, bounds=samples, projected", "manifill",
+           _manifill(method="triharmonic", bounds="samples", bounds_mode="project"), "mf projected triharmonic"),
+    Method("manifill hessian (flat Hessian energy)", "manifill", _manifill(method="hessian"), "mf hessian"),
+    Method("manifill hessian, bounds=samples, projected", "manifill",
+           _manifill(method="hessian", bounds="samples", bounds_mode="project"), "mf projected hessian"),
+    Method("manifill hessian-curved", "manifill", _manifill(method="hessian-curved"), "mf curved hessian"),
+    Method("manifill hessian-curved, bounds=samples, projected", "manifill",
+           _manifill(method="hessian-curved", bounds="samples", bounds_mode="project"), "mf projected curved hessian"),
     Method("manifill gvf-harmonic, hermite, bounds=samples", "manifill",
            _manifill(method="gvf-harmonic", bounds="samples"), "mf bounded hermite"),
     Method("manifill triharmonic (point constraints)", "manifill", _manifill(method="triharmonic"),
@@ -223,6 +234,8 @@ METHODS = [
     Method("manifill auto", "manifill", _manifill(method="auto"), "mf auto", smoke=("sphere-smooth",), ks=(100,)),
     Method("libigl harmonic (k=1, points)", "peer", _igl_harmonic(1), "igl harmonic"),
     Method("libigl biharmonic (k=2, points)", "peer", _igl_harmonic(2), "igl biharmonic"),
+    Method("libigl biharmonic clipped to the samples' range", "peer", _igl_harmonic(2, clip=True),
+           "igl biharmonic clipped"),
     Method("SciPy RBF thin-plate spline (xyz)", "peer", rbf_tps, "RBF TPS"),
     Method("nearest sample (geodesic, Dijkstra)", "peer", nearest_geodesic, "nearest"),
     Method("potpourri3d vector heat extend_scalar", "peer", vector_heat, "vector heat"),

@@ -37,7 +37,7 @@ def test_bench_all_smoke(tmp_path):
     for name in ("python", "numpy", "scipy", "pyamg", "libigl", "manifill"):
         assert re.search(rf"{name} \d", text), name
     # one table per (mesh, field) with random samples: a header row with the k columns, and a row per method
-    assert text.count("| method | k = 10 | k = 30 |") == 7
+    assert text.count("| method | k = 10 | k = 30 |") == 8
     has_mne = importlib.util.find_spec("mne") is not None
     # the head case: one column per EEG montage, or a note saying why it is missing
     assert ("| method | k = 32 (biosemi32) | k = 64 (biosemi64) |" in text) == has_mne

@@ -456,7 +456,7 @@ def test_direct_solver_runs_with_plenty(plenty_memory):
 def test_tet_fill_refused_before_the_laplacian(monkeypatch):
     V, F = icosphere(2)
     TV, TT = tetrahedralize(V, F, max_volume=1e-3)
-    monkeypatch.setattr(manifill.solid.fill, "tet_laplacian", lambda *a, **k: pytest.fail("assembled"))
+    monkeypatch.setattr(manifill.solid.fill, "HarmonicSolver", lambda *a, **k: pytest.fail("assembled"))
     monkeypatch.setattr(manifill.memory, "available_bytes", lambda: 1000)
     msg = refused_quietly(tet_fill, TV, TT, np.arange(len(V)), V[:, 0], solver="direct")
     assert msg.startswith(f"the harmonic fill of {len(TV) - len(V):,} tet vertices (direct)")

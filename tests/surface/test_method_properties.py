@@ -83,10 +83,13 @@ def case(name, *, linear=False, exact=True, bounded=False, kind=None, **kw):
 PIPELINE = [case(f"gvf-harmonic-{cv}-{p}", linear=cv in ("hermite", "linear"), bounded=cv != "hermite",
                  method="gvf-harmonic", curve_values=cv, partition=p)
             for cv in ("hermite", "monotone", "linear", "gvf") for p in ("delaunay", "tree", "cycle")]
-ENERGY = [case(m, linear=True, bounded=m == "harmonic", method=m) for m in ("harmonic", "biharmonic", "triharmonic")]
+ENERGY = [case(m, linear=True, bounded=m == "harmonic", method=m)
+          for m in ("harmonic", "biharmonic", "triharmonic", "hessian", "hessian-curved")]
 BOUNDED = ([case(f"{m}-bounds-samples", bounded=True, method=m, bounds="samples")
             for m in ("harmonic", "biharmonic", "triharmonic")]
-           + [case(f"{m}-bounds-pair", kind="pair", method=m, bounds=PAIR) for m in ("biharmonic", "triharmonic")])
+           + [case(f"{m}-bounds-pair", kind="pair", method=m, bounds=PAIR) for m in ("biharmonic", "triharmonic")]
+           + [case(f"{m}-bounds-project", bounded=True, method=m, bounds="samples", bounds_mode="project")
+              for m in ("biharmonic", "hessian", "rbf")])
 SMOOTHED = ([case(f"{m}-smoothing-fixed", linear=True, exact=False, kind="fixed", method=m, smoothing=1e-2)
              for m in ("harmonic", "biharmonic", "triharmonic")]
             + [case(f"{m}-smoothing-auto", exact=False, kind="auto", method=m, smoothing="auto")

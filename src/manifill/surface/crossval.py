@@ -48,7 +48,7 @@ CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"
               ("biharmonic", {}), ("biharmonic", {"bounds": "samples"}), ("triharmonic", {}), ("rbf", {}))
 #: The options of :func:`cross_validate` besides its own, passed to every fit.
 FIT_OPTIONS = ("partition", "weights", "levels", "curve_values", "solver", "iteration", "init", "tol", "maxiter",
-               "bounds", "smoothing", "sample_weights")
+               "bounds", "bounds_mode", "smoothing", "sample_weights")
 #: Options that shape the surface or the samples, not a fit (refused per candidate).
 SURFACE_OPTIONS = ("distance", "duplicates", "max_distance", "neighbours", "barriers")
 
@@ -61,7 +61,7 @@ def candidates_of(methods, digital=False):
     if isinstance(methods, str) or isinstance(methods, tuple) and len(methods) == 2 and isinstance(methods[1], dict):
         methods = [methods]  # one candidate alone
     out = {}
-    allowed = [m for m in names(presets=False) if not method_of(m).delegates]
+    allowed = [m for m in names() if not method_of(m).delegates]  # a preset (the default) is a candidate too
     for c in methods:
         name, opts = (c, {}) if isinstance(c, str) else (tuple(c) if isinstance(c, (tuple, list)) else (None, None))
         if not isinstance(name, str) or not isinstance(opts, dict):

@@ -63,6 +63,36 @@ class CrossValidation:
     hints: dict = field(default_factory=dict, repr=False)
     #: Label -> the farthest any fold's fit left its training samples' range, as a fraction of that range.
     overshoot: dict = field(default_factory=dict)
+    #: Label -> ``(folds, p)``: each fold's error per field.
+    field_fold_errors: dict = field(default_factory=dict, repr=False)
+
+    def one_se(self, default):
+        """Per field, the label to use: ``default`` unless another candidate's error is lower by more than one
+        standard error of that candidate's fold errors (the one-standard-error rule), then that candidate.
+
+        Parameters
+        ----------
+        default : str
+            The label kept unless the evidence says otherwise.
+
+        Returns
+        -------
+        list of str
+            One label per field.
+        """
+        ok = [m for m in self.methods if not self.failures[m] and np.isfinite(self.errors[m])]
+        out = []
+        for j in range(len(self.field_errors[self.methods[0]])):
+            best = min(ok, key=lambda m: (self.field_errors[m][j], self.methods.index(m)))
+            if default not in ok:
+                out.append(best)
+                continue
+            folds = self.field_fold_errors.get(best)
+            e = folds[:, j][np.isfinite(folds[:, j])] if folds is not None else np.zeros(0)
+            se = float(np.std(e, ddof=1) / np.sqrt(e.size)) if e.size > 1 else 0.0
+            gain = self.field_errors[default][j] - self.field_errors[best][j]
+            out.append(best if gain > se else default)
+        return out
 
     def ranking(self):
         """The labels, best first: methods that ran on every fold by error, then the others."""

@@ -84,7 +84,7 @@ def as_bounds(bounds, vals):
 
 
 def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_empty="error", fit=None, rows=None,
-                fields=None, prepared=None, energy=None, **settings):
+                fields=None, prepared=None, **settings):
     """Minimise the k-harmonic energy on a Surface with the samples as constraints.
 
     Parameters
@@ -117,16 +117,14 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     fields : int, optional
         How many fields will share these samples (default: ``vals``' columns); with
         many, ``solver='auto'`` factorises larger systems too.
-    energy : callable, optional
-        ``energy(surface)``: another energy matrix of order ``k`` (the Hessian energies,
-        :mod:`manifill.mesh.hessian`, with ``k = 2``) in place of the k-harmonic one; the solver policy,
-        bounds and smoothing are those of order ``k``.
     prepared : Prepared, optional
         Keeps the energy and the solve core (its factorisation or hierarchy) for the
         next call with the same samples (:mod:`manifill.surface.prepared`); the bounded
         active set's own solves and the smoothing fit are made anew at every call.
     **settings
-        ``tol``, ``maxiter`` of the solver.
+        ``tol``, ``maxiter`` of the solver; ``energy``: a callable ``energy(surface)`` giving another energy
+        matrix of order ``k`` (the Hessian energies, :mod:`manifill.mesh.hessian`, with ``k = 2``) in place of the
+        k-harmonic one (the solver policy, bounds and smoothing are those of order ``k``).
 
     Returns
     -------
@@ -145,9 +143,9 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
     fit = FitOptions() if fit is None else fit
     bounds, smoothing, sample_weights = fit.bounds, fit.smoothing, fit.sample_weights
     Aeq, beq = (None, None) if rows is None else rows
-    tol, maxiter = settings.pop("tol", None), settings.pop("maxiter", None)
+    tol, maxiter, energy = settings.pop("tol", None), settings.pop("maxiter", None), settings.pop("energy", None)
     if settings:
-        raise OptionError(f"energy_fill takes no setting {next(iter(settings))!r}; pass tol or maxiter")
+        raise OptionError(f"energy_fill takes no setting {next(iter(settings))!r}; pass tol, maxiter or energy")
     A = cached(prepared, "energy matrix", lambda: _energy(surface, weights, k) if energy is None else energy(surface))
     fields = vals.shape[1] if fields is None else fields
     lohi = as_bounds(bounds, vals if Aeq is None else np.vstack([vals, beq]))

@@ -107,8 +107,8 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
     span = vals.max(axis=0) - vals.min(axis=0)
     span = np.where(span > 0, span, 1.0)  # a constant field: absolute errors
     sw = options.fit.sample_weights
-    res = {key: {} for key in ("errors", "field_errors", "fold_errors", "seconds", "failures", "excluded",
-                               "overshoot")}
+    res = {key: {} for key in ("errors", "field_errors", "fold_errors", "field_fold_errors", "seconds", "failures",
+                               "excluded", "overshoot")}
     for label, (name, own) in candidates.items():
         fit = options.replace(method=name, preset=None, on_empty="nan", seed=seed, **own)
         pred = np.full((k, p), np.nan)
@@ -130,9 +130,12 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
             fe = np.sqrt(np.mean(rel[use] ** 2, axis=0)) if use.any() else np.full(p, np.nan)
             folds_e = np.array([np.sqrt(np.mean(rel[use & (labels == f)] ** 2)) if (use & (labels == f)).any()
                                 else np.nan for f in range(nf)])
+            per_field = np.array([np.sqrt(np.mean(rel[use & (labels == f)] ** 2, axis=0)) if (use & (labels == f)).any()
+                                  else np.full(p, np.nan) for f in range(nf)])
         res["errors"][label] = float(np.sqrt(np.mean(fe ** 2)))
         res["field_errors"][label] = fe
         res["fold_errors"][label] = folds_e
+        res["field_fold_errors"][label] = per_field
         res["seconds"][label] = seconds
         res["failures"][label] = failures
         res["excluded"][label] = int(miss.sum())

@@ -1,13 +1,17 @@
-"""``method='auto'``: cross-validate the cheaper candidates on the samples, reconstruct with the best.
+"""``method='auto'``: cross-validate candidates on the samples, each field reconstructed by its own choice.
 
-:data:`AUTO_CANDIDATES` (the paper's pipeline with Hermite and monotone curve values,
-harmonic, biharmonic, triharmonic, rbf; the bi- and triharmonic left out on a digital
-surface; with ``bounds`` only the candidates that hold them) are each fitted on
-:data:`AUTO_FOLDS` folds (leave-one-out below that many samples; the split seeded by ``seed``)
-by :func:`manifill.surface.folds.run_folds`; the lowest-error one then runs on all samples, so
-the result equals ``reconstruct(..., method=<chosen>, <its options>)``, and ``report['auto']``
-holds the table.
+:data:`AUTO_CANDIDATES` (the default, the projected triharmonic, the Hessian, rbf; on a digital surface or a point
+cloud only those it can run) are each fitted on :data:`AUTO_FOLDS` folds (leave-one-out below that many samples;
+the split seeded by ``seed``) by :func:`manifill.surface.folds.run_folds`. Each field then keeps the default
+unless another candidate's cross-validated error is lower by more than one standard error of its fold errors
+(the one-standard-error rule, :meth:`manifill.surface.crossval_result.CrossValidation.one_se`): ``auto`` leaves
+the default only on evidence. Fields that chose the same candidate run together on all samples, so each field
+equals ``reconstruct(..., method=<its choice>, <its options>)``; ``report['auto']`` holds the table and
+``report['auto']['fields']`` the candidate of every field. Samples given as positions take one candidate for all
+fields (the rule applied to the fields' combined error).
 """
+
+import numpy as np
 
 from ...errors import OptionError, SampleError, SolveError
 from ...progress import tick
@@ -17,19 +21,20 @@ from .base import Method
 
 __all__ = ["AUTO", "AUTO_CANDIDATES", "AUTO_FOLDS", "Auto"]
 
-#: The candidates of ``method="auto"``: ``(method, options)``; the bounded biharmonic is left out (its active set
-#: costs 5-20x the others per fold at 41k vertices, docs/NOTES.md), so that ``auto`` costs a few times one fit.
-AUTO_CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"}), ("harmonic", {}),
-                   ("biharmonic", {}), ("triharmonic", {}), ("rbf", {}))
+#: The candidates of ``method="auto"``: ``(method or preset, options)``, the default first (the one kept unless
+#: the cross-validation says otherwise); the exact bounded minimisers are left out (an active set per fold).
+AUTO_CANDIDATES = (("default", {}), ("triharmonic", {"bounds": "samples", "bounds_mode": "project"}),
+                   ("hessian", {}), ("rbf", {}))
 #: Folds of ``method="auto"``.
 AUTO_FOLDS = 5
 
 
 class Auto(Method):
-    """Cross-validation's choice (see the module docstring)."""
+    """Cross-validation's choice per field (see the module docstring)."""
 
     name = "auto"
-    summary = "cross-validation picks among the cheaper candidates on your own samples"
+    summary = "cross-validation picks, field by field, among the default and a few others; the default unless " \
+              "another is better by more than one standard error"
     can_bound = True
     can_smooth = True
     at_points = True
@@ -52,10 +57,12 @@ class Auto(Method):
                               "or pass the samples at vertices")
         base = o.replace(check=None)
         with run.step("cross-validate", "cross_validate"):
-            # on a digital surface only those without a mass matrix; with bounds only those that hold them
+            # on a digital surface only those without a mass matrix, on a cloud only those without faces; with
+            # exact bounds only those that hold them
             usable = [(name, own) for name, own in AUTO_CANDIDATES
                       if not (surface.mass is None and run.lookup(name).needs_triangles)
-                      and (o.fit.bounds is None or run.lookup(name).can_bound)]
+                      and not (surface.F is None and run.lookup(name).needs_faces)
+                      and (o.fit.bounds is None or o.fit.projected or "bounds" in own or run.lookup(name).can_bound)]
             cands = {label_of(name, own): (name, own) for name, own in usable}
             cv = run_folds(surface, idx, vals, cands, folds=AUTO_FOLDS if k >= AUTO_FOLDS else "loo",
                            seed=o.fill.seed, options=base, reconstruct=run.reconstruct, lookup=run.lookup)
@@ -63,15 +70,37 @@ class Auto(Method):
             first = next(iter(cv.failures[cv.ranking()[0]].values()), "no prediction")
             raise SolveError(f"method='auto': no candidate ran on every fold (e.g. {cv.ranking()[0]}: {first}); "
                              f"pick a method")
-        name, own = cv.candidates[cv.best]
+        default = label_of(*AUTO_CANDIDATES[0])
+        chosen = cv.one_se(default)
+        if points is not None and len(set(chosen)) > 1:  # one candidate for all: the rule on the combined error
+            chosen = [_combined(cv, default)] * len(chosen)
         tick(run.progress, "fill")
         built = points is not None and points.constraint.size and (points.constraint >= 0).all()
-        r = run.reconstruct(surface, idx, vals, options=base.replace(method=name, preset=None, **own),
-                            points=points if built else None, seconds=run.seconds)
+        r, values = None, None
+        for label in dict.fromkeys(chosen):  # each candidate once, in the fields' order
+            cols = [j for j, c in enumerate(chosen) if c == label]
+            name, own = cv.candidates[label]
+            part = run.reconstruct(surface, idx, vals[:, cols], options=base.replace(method=name, preset=None, **own),
+                                   points=points if built else None, seconds=run.seconds)
+            if r is None:
+                r, values = part, np.empty((part.values.shape[0], vals.shape[1]))
+            values[:, cols] = part.values
+        r.values = values
+        if len(set(chosen)) > 1:  # a mix: the first group's report stands for the method, the fields say the rest
+            r.std = None
+            r.report["method"] = "auto"
         if points is not None and not built:
             r.report["points"] = points_report(points, False)
-        r.report["auto"] = cv.summary()
+        r.report["auto"] = {**cv.summary(), "fields": chosen, "default": default}
         return r
+
+
+def _combined(cv, default):
+    """The one-standard-error rule on the fields' combined error."""
+    best = cv.best
+    e = cv.fold_errors[best][np.isfinite(cv.fold_errors[best])]
+    se = float(np.std(e, ddof=1) / np.sqrt(e.size)) if e.size > 1 else 0.0
+    return best if default not in cv.errors or cv.errors[default] - cv.errors[best] > se else default
 
 
 AUTO = Auto()

@@ -56,6 +56,8 @@ class Method:
     gives_std = False
     gp_mean = False
     needs_triangles = False
+    #: It needs a mesh's faces (not a point cloud's or a digital surface's neighbourhoods).
+    needs_faces = False
     sparse_map = False
     partitions = False
     #: Its field's gradient is free of jumps at the samples and curves (harmonic fills have kinks there: on a

@@ -24,6 +24,7 @@ class Hessian(Energy):
 
     gives_std = False
     needs_triangles = True
+    needs_faces = True
 
     def __init__(self, name, build, summary):
         super().__init__(name, 2, summary)

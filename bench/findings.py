@@ -44,7 +44,7 @@ def cell(case, name, k):
 # where manifill leads and trails, from the numbers
 # ---------------------------------------------------------------------------
 
-DEFAULT = "manifill default (gvf-harmonic, monotone, bounds=samples)"
+DEFAULT = "manifill default (biharmonic, projected onto the samples' range)"
 BIHARMONIC = "libigl biharmonic (k=2, points)"
 RBF = "SciPy RBF thin-plate spline (xyz)"
 HARMONIC = "libigl harmonic (k=1, points)"

@@ -13,9 +13,10 @@ process, one after another (the machine is shared: compare the ratios of one chi
    once, in chunks of ``--chunk`` columns (the first ``--chunks-max`` chunks), and on one field (five
    single fields, the median; also without Step 1, which ``check=None`` runs for up to 10 fields);
 3. ``igl.harmonic(V, F, b, bc, 1)`` with ``p`` columns on the same fixed set: for the
-   partition methods (the default, ``gvf-harmonic``) ``b`` = the curve vertices
-   (``r.on_curve``) and ``bc = r.values[b]``; for ``harmonic`` ``b = idx`` and ``bc = vals``;
-   also with one column (its factorisation plus one solve).
+   pipeline (``gvf-harmonic``) ``b`` = the curve vertices (``r.on_curve``) and ``bc = r.values[b]``;
+   for ``harmonic`` ``b = idx`` and ``bc = vals``; for the default (the biharmonic projected onto the
+   samples' range) ``igl.harmonic(..., 2)`` from the samples, clipped to each field's range; also with one
+   column (its factorisation plus one solve).
 
 Checks: the largest ``|apply - reconstruct|`` (over all, the chunks and the single fields) and
 the largest ``|manifill - igl|`` off the fixed set (both solve the same cotangent Dirichlet
@@ -157,13 +158,18 @@ def child(cfg):
     out["apply_vs_reconstruct"] = diffs
 
     if igl is not None:
-        b = np.flatnonzero(r.on_curve) if method != "harmonic" else idx
+        # the pipeline: the harmonic fill from its curves; harmonic: from the samples; the default: the biharmonic
+        # from the samples, clipped to each field's range (k = 2)
+        order = 2 if method == "default" else 1
+        b = np.flatnonzero(r.on_curve) if method == "gvf-harmonic" else idx
         b = np.ascontiguousarray(b, dtype=np.int64)
-        bc = np.ascontiguousarray(X[b] if method != "harmonic" else vals, dtype=np.float64)
+        bc = np.ascontiguousarray(X[b] if method == "gvf-harmonic" else vals, dtype=np.float64)
         F64 = np.ascontiguousarray(F, dtype=np.int64)
         V64 = np.ascontiguousarray(V, dtype=np.float64)
-        st.run("igl one", lambda: igl.harmonic(V64, F64, b, np.ascontiguousarray(bc[:, :1]), 1))
-        Z = st.run("igl", lambda: igl.harmonic(V64, F64, b, bc, 1))
+        st.run("igl one", lambda: igl.harmonic(V64, F64, b, np.ascontiguousarray(bc[:, :1]), order))
+        Z = st.run("igl", lambda: igl.harmonic(V64, F64, b, bc, order))
+        if method == "default":
+            Z = np.clip(Z, vals.min(axis=0), vals.max(axis=0))
         free = np.ones(n, dtype=bool)
         free[b] = False
         out["igl_fixed"] = int(b.size)

@@ -192,7 +192,9 @@ def mne_spline_exact(V, F, idx, vals):
 
 
 METHODS = [
-    Method("manifill default (gvf-harmonic, monotone, bounds=samples)", "manifill", _manifill(), "mf default"),
+    Method("manifill default (biharmonic, projected onto the samples' range)", "manifill", _manifill(), "mf default"),
+    Method("manifill gvf-harmonic, monotone, bounds=samples (the default before issue 37)", "manifill",
+           _manifill(method="gvf-harmonic", curve_values="monotone", bounds="samples"), "mf pipeline bounded"),
     Method("manifill gvf-harmonic, delaunay, hermite (the paper's pipeline)", "manifill",
            _manifill(method="gvf-harmonic"), "mf hermite"),
     Method("manifill gvf-harmonic, tree, hermite", "manifill", _manifill(method="gvf-harmonic", partition="tree"),

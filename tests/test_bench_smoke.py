@@ -42,7 +42,7 @@ def test_bench_all_smoke(tmp_path):
     # the head case: one column per EEG montage, or a note saying why it is missing
     assert ("| method | k = 32 (biosemi32) | k = 64 (biosemi64) |" in text) == has_mne
     assert ("case head-eeg skipped: mne is not installed" in text) == (not has_mne)
-    for row in ("manifill default (gvf-harmonic, monotone, bounds=samples) |", "libigl biharmonic (k=2, points) |",
+    for row in ("manifill default (biharmonic, projected onto the samples' range) |", "libigl biharmonic (k=2, points) |",
                 "potpourri3d vector heat extend_scalar |", "pyvista Gaussian kernel interpolate |",
                 "MNE spherical spline (interpolate_bads, reg 1e-5) |", "manifill biharmonic, smoothing=auto |"):
         assert row in text, row
@@ -51,13 +51,13 @@ def test_bench_all_smoke(tmp_path):
     # the targets: a line per (target, case), each with a verdict
     assert "### Targets (issue 12)" in text and "- **Targets of issue 12**:" in text
     targets = [line for line in text.splitlines() if line.startswith("| default / best peer |")]
-    assert len(targets) == 7 + has_mne
+    assert len(targets) == 8 + 2 * has_mne  # the random-sample cases, then the head and the open scalp
     assert all(re.search(r"\| (pass|\*\*fail\*\*|no result) \|", line) for line in targets)
     assert "| level | vertices |" in text and "| series | slope |" in text
     pngs = sorted((out / "benchmarks").glob("*.png"))
     names = {p.name for p in pngs}
     assert "scaling.png" in names
-    assert len([n for n in names if n.startswith("accuracy_")]) == 7 + has_mne
+    assert len([n for n in names if n.startswith("accuracy_")]) == 8 + 2 * has_mne
     for png in pngs:
         assert png.stat().st_size > 1000, png
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png

@@ -69,7 +69,7 @@ def test_a_reconstruction_is_a_result_with_its_masks(columns):
     V, F = icosphere(2)
     idx = np.array([0, 10, 50, 90, 120])
     vals = np.column_stack([V[idx, 0], V[idx, 1]])[:, :columns]
-    r = reconstruct(V, F, idx, vals[:, 0] if columns == 1 else vals)
+    r = reconstruct(V, F, idx, vals[:, 0] if columns == 1 else vals, method="gvf-harmonic")
     assert isinstance(r, Result) and isinstance(r, Reconstruction)
     data = r.point_data()
     assert list(data) == field_names(None, columns) + [SAMPLE_MASK, CURVE_MASK, PATCH_LABEL]
@@ -94,7 +94,7 @@ def test_the_repr_is_short_and_names_what_ran():
     lo, hi = X[:, 0].min(), r.values[:, 0].max()
     assert f"{r.values[:, 0].min():.4g}" in text and f"{hi:.4g}" in text and lo >= r.values[:, 0].min()
     one = repr(reconstruct(V, F, idx, X[:, 0]))
-    assert "default (gvf-harmonic, monotone curves)" in one and "1 field\n" in one
+    assert "default (biharmonic)" in one and "1 field\n" in one
 
 
 def test_names_are_an_attribute_and_name_every_output(tmp_path):

@@ -260,7 +260,8 @@ RECONSTRUCTIONS = [
     {},
     {"method": "harmonic"},
     {"method": "gvf"},
-    *({"curve_values": c, "partition": p, "distance": d}
+    {"method": "hessian"},
+    *({"method": "gvf-harmonic", "curve_values": c, "partition": p, "distance": d}
       for c in ("hermite", "linear", "gvf") for p in ("delaunay", "cycle", "tree") for d in ("length", "hops")),
 ]
 
@@ -282,7 +283,8 @@ def test_reconstruct_is_scale_free(opts, s):
     assert np.array_equal(r.values[IDX], VALS)
 
 
-@pytest.mark.parametrize("opts", [{}, {"partition": "cycle"}, {"curve_values": "linear", "weights": "intrinsic"}])
+@pytest.mark.parametrize("opts", [{}, {"method": "gvf-harmonic", "partition": "cycle"},
+                                  {"method": "gvf-harmonic", "curve_values": "linear", "weights": "intrinsic"}])
 def test_reconstruct_far_from_the_origin(opts):
     """A translation by 1e6 changes nothing but the rounding of the positions themselves."""
     W = V0 + [1e6, -2e6, 3e5]

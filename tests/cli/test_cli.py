@@ -386,9 +386,9 @@ def test_demo(tmp_path, capsys):
     assert code == 0 and err == ""
     rmse = {line.split("(")[1].split(")")[0].strip(): float(line.split("relative RMSE ")[1].split(",")[0])
             for line in out.splitlines() if "vertices (" in line and "relative RMSE" in line}
-    assert len(rmse) == 4 and all(0 < r < 0.5 for r in rmse.values())
-    # the paper's pipeline beats point constraints on the same samples
-    assert rmse["100 points, pipeline"] < rmse["100 points, harmonic"]
+    assert len(rmse) == 5 and all(0 < r < 0.5 for r in rmse.values())
+    # the paper's pipeline beats point constraints on the same samples, and the default beats the pipeline
+    assert rmse["100 points, default"] < rmse["100 points, pipeline"] < rmse["100 points, harmonic"]
     base = ["report.txt", "samples.csv", "sphere.ply", "sphere.vtu"]
     pictures = ["fig4_1_cycle.png", "fig4_3_gvf_vs_harmonic.png", "fig4_4_three_components.png",
                 "fig4_5_7_guiding_points.png", "solid_slices.png", "viewer.html"]
@@ -397,16 +397,16 @@ def test_demo(tmp_path, capsys):
     m = meshio.read(outdir / "sphere.vtu")
     assert len(m.points) == 40962
     assert {"truth", "harmonic_curves", "harmonic_points", "circle_mask", "sample_mask",
-            "reconstruct_points", "curve_mask", "patch_label", "gp", "gp_std"} <= set(m.point_data)
+            "default", "pipeline", "curve_mask", "patch_label", "gp", "gp_std"} <= set(m.point_data)
     scale = np.ptp(m.point_data["truth"])
     sample = m.point_data["sample_mask"].astype(bool)
     assert np.all(m.point_data["gp_std"][sample] == 0) and np.all(m.point_data["gp_std"][~sample] > 0)
     np.testing.assert_allclose(m.point_data["gp"][sample], m.point_data["truth"][sample], atol=1e-9 * scale)
-    # the command the demo suggests runs, and gives the demo's own pipeline result
+    # the command the demo suggests runs, and gives the demo's own default result
     code, out, err = run(capsys, "reconstruct", outdir / "sphere.ply", outdir / "samples.csv",
                          "-o", outdir / "mine.npy")
     assert code == 0 and err == ""
-    np.testing.assert_allclose(np.load(outdir / "mine.npy"), m.point_data["reconstruct_points"], atol=1e-6 * scale)
+    np.testing.assert_allclose(np.load(outdir / "mine.npy"), m.point_data["default"], atol=1e-6 * scale)
     code, out, err = run(capsys, "harmonic", outdir / "sphere.ply", outdir / "samples.csv",
                          "-o", outdir / "mine.npy")
     assert code == 0 and err == ""
@@ -488,9 +488,10 @@ def test_reconstruct_writes_field_curves_and_components(tmp_path, capsys, sphere
     from manifill.surface.reconstruct import reconstruct
     s = sphere
     out_path = tmp_path / "rec.vtu"
-    code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", out_path, "--curve-values", "linear")
+    code, out, err = run(capsys, "reconstruct", s["path"], s["samples"], "-o", out_path, "--curve-values", "linear",
+                         "--method", "gvf-harmonic")
     assert code == 0 and err == ""
-    r = reconstruct(s["V"], s["F"], s["idx"], s["vals"][:, 0], curve_values="linear")
+    r = reconstruct(s["V"], s["F"], s["idx"], s["vals"][:, 0], curve_values="linear", method="gvf-harmonic")
     pd = meshio.read(out_path).point_data
     np.testing.assert_allclose(pd["temp"], r.values, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(pd["curve_mask"].astype(bool), r.on_curve)
@@ -567,7 +568,7 @@ def test_energy_methods_with_bounds_and_smoothing(tmp_path, capsys, sphere):
     assert code == 0 and "smoothing lambda 0.5" in out
     for extra, words in [(["--method", "biharmonic", "--bounds", "0"], "--bounds"),
                          (["--method", "harmonic", "--smoothing", "lots"], "--smoothing"),
-                         (["--smoothing", "0.5"], "energy methods"),
+                         (["--method", "gvf-harmonic", "--smoothing", "0.5"], "energy methods"),
                          (["--method", "biharmonic", "--bounds", "0,1"], "outside the bounds")]:
         line = assert_usage_error(*run(capsys, "reconstruct", s["path"], s["samples"], "-o", tmp_path / "x.vtu",
                                        *extra))

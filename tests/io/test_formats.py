@@ -223,7 +223,7 @@ def test_results_convert_back_with_fields_and_masks():
 
     V, F = icosphere(2)
     idx = np.array([0, 7, 40, 90, 130])
-    r = manifill.reconstruct(V, F, idx, np.column_stack([V[idx, 0], V[idx, 1]]))
+    r = manifill.reconstruct(V, F, idx, np.column_stack([V[idx, 0], V[idx, 1]]), method="gvf-harmonic")
     m = r.to_pyvista(["a", "b"])
     np.testing.assert_array_equal(m.regular_faces, F)
     np.testing.assert_array_equal(m.point_data["a"], r.values[:, 0])
@@ -233,7 +233,8 @@ def test_results_convert_back_with_fields_and_masks():
     np.testing.assert_array_equal(mm.point_data["b"], r.values[:, 1])
     np.testing.assert_array_equal(mm.point_data["curve_mask"].astype(bool), r.on_curve)
     # and what came out goes back in
-    np.testing.assert_allclose(manifill.reconstruct(m, None, idx, r.values[idx]).values, r.values, atol=1e-12)
+    np.testing.assert_allclose(manifill.reconstruct(m, None, idx, r.values[idx], method="gvf-harmonic").values,
+                               r.values, atol=1e-12)
 
 
 def test_wrong_objects_name_what_to_pass():

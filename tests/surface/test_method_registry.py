@@ -104,15 +104,34 @@ def test_the_default_is_a_named_preset_that_says_what_it_ran():
     for method in (None, "default"):
         r = manifill.reconstruct(V, F, IDX, VALS, method=method)
         assert r.report["preset"] == "default" and r.report["default"] is True
-        assert (r.report["method"], r.report["curve_values"]) == ("gvf-harmonic", "monotone")
-        assert "bounds" in r.report
-    plain = manifill.reconstruct(V, F, IDX, VALS, method="gvf-harmonic")
-    assert "preset" not in plain.report and plain.report["curve_values"] == "hermite" and "bounds" not in plain.report
+        assert r.report["method"] == "biharmonic" and r.report["bounds"]["mode"] == "project"
+    plain = manifill.reconstruct(V, F, IDX, VALS, method="biharmonic")
+    assert "preset" not in plain.report and "bounds" not in plain.report
     # a preset fills in only what the caller did not give
-    mine = manifill.reconstruct(V, F, IDX, VALS, curve_values="linear")
-    assert mine.report["curve_values"] == "linear" and "bounds" in mine.report
-    same = manifill.reconstruct(V, F, IDX, VALS, method="gvf-harmonic", curve_values="monotone", bounds="samples")
+    mine = manifill.reconstruct(V, F, IDX, VALS, bounds_mode="exact")
+    assert mine.report["method"] == "biharmonic" and "mode" not in mine.report.get("bounds", {})
+    assert mine.report["harmonic"]["bounds"]["iterations"]  # the active set ran
+    same = manifill.reconstruct(V, F, IDX, VALS, method="biharmonic", bounds="samples", bounds_mode="project")
     np.testing.assert_array_equal(same.values, manifill.reconstruct(V, F, IDX, VALS).values)
+    # curve values belong to the pipeline: the default refuses them (they are not dropped)
+    with pytest.raises(OptionError, match="curve_values"):
+        manifill.reconstruct(V, F, IDX, VALS, curve_values="linear")
+
+
+def test_a_surface_without_triangles_takes_the_pipeline_by_default():
+    """A voxel mask's digital surface has no mass matrix for the biharmonic: the default falls back to the
+    paper's pipeline with monotone curve values, bounded (what the default was before issue 37)."""
+    from manifill.surface.methods.registry import configure, for_surface
+    from manifill.surface.surface import Surface
+
+    s = Surface.from_mesh(V, F)
+    s.mass = None
+    o = for_surface(configure(), s)
+    assert (o.method, o.preset, o.fill.curve_values, o.fit.bounds) == ("gvf-harmonic", "default", "monotone",
+                                                                       "samples")
+    given = for_surface(configure(solver="direct"), s)  # what the caller gave is kept
+    assert given.fill.solver == "direct" and given.method == "gvf-harmonic"
+    assert for_surface(configure(), Surface.from_mesh(V, F)).method == "biharmonic"
 
 
 def test_options_are_built_once_checked_and_frozen():

@@ -7,10 +7,21 @@ from scipy.sparse import csgraph
 from conftest import edge_set, grid, icosphere, irregular, relabel, torus, two_components
 from manifill import OptionError, SampleError, SolveError, harmonic
 from manifill.mesh.graph import mesh_graph
-from manifill.surface.reconstruct import STEPS, reconstruct
+from manifill.surface.reconstruct import STEPS
+from manifill.surface.reconstruct import reconstruct as _reconstruct
 from manifill.mesh.shapes import grid as shapes_grid
 
 METHODS = ("gvf-harmonic", "harmonic", "gvf")
+#: These tests are about the paper's Steps 1-6: without a method they run the pipeline as the default ran it
+#: before issue 37 (monotone curve values, bounded by the samples' range; each option given by a test wins).
+PIPELINE_DEFAULT = {"curve_values": "monotone", "bounds": "samples"}
+
+
+def reconstruct(V, F, idx, vals, **kw):
+    """``manifill.reconstruct``, with the paper's pipeline where no method is named."""
+    if kw.get("method") is None:
+        kw = {**PIPELINE_DEFAULT, **{k: v for k, v in kw.items() if v is not None}, "method": "gvf-harmonic"}
+    return _reconstruct(V, F, idx, vals, **kw)
 PARTITIONS = ("delaunay", "cycle", "tree")
 CURVE_VALUES = ("linear", "hermite", "gvf")
 
@@ -431,7 +442,8 @@ def test_reconstruct_surface_keeps_the_field_axis_and_adds_its_timings():
     idx = np.arange(0, len(V), 11)
     vals = V[idx, :1] + 1.0
     seconds = {"validate": 1.0, "graph": 2.0}
-    r = reconstruct_surface(Surface.from_mesh(V, F), idx, vals, seconds=seconds)
+    r = reconstruct_surface(Surface.from_mesh(V, F), idx, vals, seconds=seconds, method="gvf-harmonic",
+                            **PIPELINE_DEFAULT)
     assert r.values.shape == (len(V), 1) and r.report["seconds"] is seconds
     assert {"partition", "check", "curve_values", "harmonic"} <= set(seconds) and seconds["total"] > 3.0
     assert r.values[:, 0].tobytes() == reconstruct(V, F, idx, vals[:, 0]).values.tobytes()

@@ -217,7 +217,7 @@ def test_cli_render_html_subdivide_quiet(tmp_path, capsys):
 
     assert len(meshio.read(tmp_path / "o.ply").cells[0].data) == 4 * len(F)
     code = main(["reconstruct", str(tmp_path / "m.ply"), str(tmp_path / "s.csv"), "-o", str(tmp_path / "p.ply"),
-                 "--verbose"])
+                 "--verbose", "--method", "gvf-harmonic"])
     out, _ = capsys.readouterr()
     assert code == 0 and "partition" in out.split("time:")[1]
 
@@ -243,6 +243,9 @@ def test_progress_is_told_every_step():
     idx = np.arange(0, len(V), 9)
     steps = []
     reconstruct(V, F, idx, V[idx, 0], progress=steps.append)
+    assert steps == ["graph", "check", "biharmonic fill"]
+    steps.clear()
+    reconstruct(V, F, idx, V[idx, 0], progress=steps.append, method="gvf-harmonic")
     assert steps == ["graph", "partition", "check", "curve values", "harmonic fill"]
     steps.clear()
     reconstruct_volume(V, F, idx, V[idx, 0], resolution=12, progress=steps.append)

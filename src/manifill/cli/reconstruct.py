@@ -165,13 +165,21 @@ def _summary(args, r, V, S):
               f"gradual variation {state}")
     if "auto" in rep:  # method='auto': the cross-validation table and the choice, before the fill it chose
         print(rep["auto"]["table"])
-        print(f"auto: chose {rep['auto']['chosen']} (lowest {rep['auto']['what']} error)")
+        fields = rep["auto"].get("fields") or [rep["auto"]["chosen"]]
+        if len(set(fields)) > 1:
+            print("auto: chose " + "; ".join(f"{f} for field {j + 1}" for j, f in enumerate(fields))
+                  + " (the default unless another was better by more than one standard error)")
+        else:
+            print(f"auto: chose {fields[0]} (the default unless another was better by more than one standard error)")
         advice = rep["auto"]["recommendation"].split(". ", 1)  # what it says beyond the choice: overshoot, fields
         if len(advice) > 1 and advice[1].strip():
             print(f"  {advice[1].strip()}")
-    if rep.get("default"):
-        print(f"method: the default ({rep['method']}, {rep.get('curve_values')} curve values, bounded by the samples' "
-              f"range; --method {rep['method']} for the paper's pipeline alone)")
+    if rep.get("default") and method_of(rep["method"]).partitions:  # a surface without triangles: the pipeline
+        print(f"method: the default on a surface without triangles ({rep['method']}, {rep.get('curve_values')} curve "
+              f"values, bounded by the samples' range)")
+    elif rep.get("default"):
+        print(f"method: the default ({rep['method']}, projected onto the samples' range; --method gvf-harmonic for "
+              f"the paper's pipeline)")
     if "partition" in rep:
         pr = rep["partition"]
         print(f"steps 2-3: {pr['method']} partition, {pr['curves']} curves through {pr['curve_vertices']:,} "

@@ -16,7 +16,7 @@ import numpy as np
 
 from .energy_fill import as_bounds
 from .methods.base import Run, overshoot_by_field
-from .methods.registry import configure, method_of
+from .methods.registry import configure, for_surface, method_of
 
 __all__ = ["reconstruct_surface", "project"]
 
@@ -77,7 +77,7 @@ def reconstruct_surface(surface, idx, vals, *, options=None, points=None, fields
     >>> r.values.shape, bool(np.allclose(r.values[idx, 0], V[idx, 0] * 2.0)), r.report["preset"]
     ((162, 1), True, 'default')
     """
-    options = configure(options, **keywords)
+    options = for_surface(configure(options, **keywords), surface)
     method = method_of(options.method)
     lohi, sample_vals = None, vals if points is None else points.values
     if options.fit.projected:  # the method fills without bounds; its field is projected onto them after

@@ -65,19 +65,24 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
     options : Options, optional
         All the options below as one object, built and checked once
         (:class:`manifill.surface.options.Options`); keywords given beside it change it.
-    method : {None, 'default', 'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'gvf', 'rbf', 'gp', 'auto'}
+    method : {None, 'default', 'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'hessian', \
+'hessian-curved', 'gvf', 'rbf', 'gp', 'auto'}
         None or ``'default'``: the default preset (:mod:`manifill.surface.methods.default`), chosen by
-        measurement: the paper's pipeline with ``curve_values='monotone'`` and ``bounds='samples'`` (each
-        unless given; ``report['preset']`` is ``'default'`` and ``report['default']`` True). Each method is one
+        measurement: the biharmonic with ``bounds='samples'`` and ``bounds_mode='project'`` (each unless given;
+        on a surface without triangles, the paper's pipeline with monotone curve values, bounded;
+        ``report['preset']`` is ``'default'`` and ``report['default']`` True). Each method is one
         object of the registry (:mod:`manifill.surface.methods.registry`). The whole pipeline
         (the paper's method, unbounded unless ``bounds`` is given); harmonic, biharmonic or triharmonic with the
         samples alone fixed (the k-harmonic energy,
-        :mod:`manifill.surface.energy_fill`); the gradually varied fit of
+        :mod:`manifill.surface.energy_fill`); the squared Hessian with the samples fixed (``hessian``, flat;
+        ``hessian-curved``, libigl's, the ``[hessian]`` extra: no bending at a surface's boundary,
+        :mod:`manifill.mesh.hessian`); the gradually varied fit of
         the whole surface (every vertex but the samples on a level); the
         thin-plate spline on the positions, for fields that live in space
         (:mod:`manifill.surface.rbf`; ``smoothing`` a number); or the
-        default candidate with the lowest 5-fold cross-validation error
-        (:mod:`manifill.surface.crossval`; ``report['auto']`` gives the table).
+        default unless another candidate's 5-fold cross-validation error is lower by more than one
+        standard error, field by field (:mod:`manifill.surface.methods.auto`; ``report['auto']`` gives the
+        table and the choice of every field).
     partition : {'delaunay', 'cycle', 'tree'}, optional
         How the curves are drawn (:mod:`manifill.surface.partition`).
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
@@ -114,13 +119,15 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
     tol, maxiter : optional
         Passed to the solver.
     bounds : None, 'samples' or (lo, hi), optional
-        Per field (``'samples'``: each field's sample range). Energy methods: the
-        minimiser of the energy subject to the bounds (an active set), not a
-        clip. ``gvf-harmonic``: Step 4's curve values are projected onto the
-        bounds, then the harmonic fill is the bounded minimiser (with negative
-        cotangent weights the discrete maximum principle alone would not keep it
-        inside). ``gvf``: checked only (its values are levels within the samples'
-        range). ``rbf`` refuses bounds. Samples outside the bounds are refused.
+        Per field (``'samples'``: each field's sample range), kept as ``bounds_mode`` says. Samples outside
+        the bounds are refused.
+    bounds_mode : {None, 'exact', 'project'}, optional
+        ``'project'`` (the default preset's): the field without bounds, each value beyond them set to the
+        bound (any method; ``report['bounds']`` counts them and says how far they went). ``'exact'`` (None):
+        energy methods: the minimiser of the energy subject to the bounds (an active set), not a clip;
+        ``gvf-harmonic``: Step 4's curve values projected onto the bounds, then the bounded harmonic fill;
+        ``gvf``: checked only (its values are levels within the samples' range); ``rbf`` and ``gp`` refuse
+        exact bounds.
     smoothing : None, float >= 0 or 'auto', optional
         Energy methods only: soft constraints with this lambda (``'auto'``:
         generalised cross-validation); ``report['harmonic']['smoothing']``
@@ -172,8 +179,10 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
     >>> V, F = icosphere(3)
     >>> idx = np.arange(0, 642, 40)
     >>> r = reconstruct(V, F, idx, V[idx, 0] + V[idx, 2])
-    >>> bool(np.allclose(r.values[idx], V[idx, 0] + V[idx, 2])), r.report["partition"]["method"]
-    (True, 'delaunay')
+    >>> bool(np.allclose(r.values[idx], V[idx, 0] + V[idx, 2])), r.report["method"], r.report["bounds"]["mode"]
+    (True, 'biharmonic', 'project')
+    >>> reconstruct(V, F, idx, V[idx, 0] + V[idx, 2], method="gvf-harmonic").report["partition"]["method"]
+    'delaunay'
     """
     t0 = time.perf_counter()
     shape = np.shape(vals)

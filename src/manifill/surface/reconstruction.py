@@ -190,10 +190,10 @@ class Reconstruction(Result):
         >>> from manifill.mesh.shapes import icosphere
         >>> V, F = icosphere(2)
         >>> from manifill.surface.reconstruct import reconstruct
-        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0], method="gvf-harmonic")
         >>> list(r.masks()), int(r.masks()["sample_mask"].sum())
         (['sample_mask', 'curve_mask', 'patch_label'], 5)
-        >>> list(reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0], method="biharmonic").masks())
+        >>> list(reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0]).masks())  # the default
         ['sample_mask']
         """
         out = {SAMPLE_MASK: self.sample_mask}
@@ -227,7 +227,7 @@ class Reconstruction(Result):
         >>> from manifill.mesh.shapes import icosphere
         >>> V, F = icosphere(2)
         >>> from manifill.surface.reconstruct import reconstruct
-        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0])
+        >>> r = reconstruct(V, F, [0, 10, 50, 90, 120], [1.0, 2.0, 3.0, 4.0, 5.0], method="gvf-harmonic")
         >>> sorted(r.to_pyvista(["t"]).point_data.keys())
         ['curve_mask', 'patch_label', 'sample_mask', 't']
         """

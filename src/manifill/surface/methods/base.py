@@ -80,6 +80,11 @@ class Method:
         if fit.bounds is not None and not fit.projected and not self.can_bound:
             raise OptionError(f"method={self.name!r} takes no bounds; pass bounds=None, or use a method that holds "
                               f"them (e.g. method='biharmonic', bounds='samples'), or bounds_mode='project'")
+        if options.preset is not None and "curve_values" in options.given and not self.partitions:
+            # the default was the paper's pipeline before issue 37: its curve values are not dropped in silence
+            raise OptionError(f"curve_values are Step 4's, the values on the paper's pipeline's curves, and the "
+                              f"default ({self.name}) draws no curves; pass method='gvf-harmonic' too, or leave "
+                              f"curve_values out")
         if (fit.smoothing is not None or fit.sample_weights is not None) and not self.can_smooth:
             raise OptionError(f"smoothing and sample_weights apply to the energy methods (harmonic, biharmonic, "
                               f"triharmonic) and rbf, not to method={self.name!r}; pick one of those")

@@ -27,7 +27,7 @@ from .matern import GP
 from .pipeline import PIPELINE
 from .thin_plate import RBF
 
-__all__ = ["METHODS", "PRESETS", "method_of", "configure", "names"]
+__all__ = ["METHODS", "PRESETS", "method_of", "configure", "names", "for_surface"]
 
 #: Every method by name, in the order the docs list them.
 METHODS = {m.name: m for m in (PIPELINE, HARMONIC, BIHARMONIC, TRIHARMONIC, HESSIAN, HESSIAN_CURVED, GVF, RBF, GP,
@@ -53,7 +53,7 @@ def method_of(name):
     Examples
     --------
     >>> method_of("biharmonic").can_bound, method_of(None).name
-    (True, 'gvf-harmonic')
+    (True, 'biharmonic')
     """
     if name is None or name in PRESETS:
         return METHODS[PRESETS[name or "default"].method]
@@ -76,8 +76,8 @@ def configure(options=None, **keywords):
     Examples
     --------
     >>> o = configure()
-    >>> o.method, o.preset, o.fill.curve_values, o.fit.bounds
-    ('gvf-harmonic', 'default', 'monotone', 'samples')
+    >>> o.method, o.preset, o.fit.bounds, o.fit.bounds_mode
+    ('biharmonic', 'default', 'samples', 'project')
     >>> configure(method="gvf-harmonic").fill.curve_values
     'hermite'
     >>> configure(method="rbf", bounds="samples")
@@ -104,6 +104,31 @@ def configure(options=None, **keywords):
     _check_gp(method, o, uncertainty)
     method.check(o)
     return replace(o, uq=replace(o.uq, uncertainty=uncertainty), checked=True)
+
+
+def for_surface(options, surface):
+    """The configured options for this surface: a preset whose method needs a mass matrix, on a surface without
+    one (a digital surface), gives way to its fallback (the default: the paper's pipeline there).
+
+    Examples
+    --------
+    >>> from manifill.surface.surface import Surface
+    >>> from manifill.mesh.shapes import icosphere
+    >>> s = Surface.from_mesh(*icosphere(1))
+    >>> s.mass = None   # as a digital surface
+    >>> o = for_surface(configure(), s)
+    >>> o.method, o.preset, o.fill.curve_values, o.fit.bounds
+    ('gvf-harmonic', 'default', 'monotone', 'samples')
+    """
+    preset = PRESETS.get(options.preset)
+    if preset is None or preset.fallback is None or surface.mass is not None \
+            or not METHODS[options.method].needs_triangles:
+        return options
+    fb = preset.fallback
+    given = {k: options.get(k) for k in options.given if k not in ("method", "preset")}
+    fill_in = {k: v for k, v in fb.options.items() if k not in given}
+    o = Options.build(**given).replace(method=fb.method, preset=preset.name, **fill_in)
+    return configure(replace(o, given=options.given))
 
 
 def _check_uncertainty(method, o):

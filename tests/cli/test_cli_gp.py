@@ -140,7 +140,7 @@ def test_value_files_csv_holds_the_std_npy_says_it_does_not(tmp_path, capsys, me
 
 BAD = {
     "uncertainty without a model": ["--method", "gvf-harmonic", "--uncertainty"],
-    "uncertainty with the default": ["--uncertainty"],
+    "uncertainty with the paper's pipeline": ["--method", "gvf-harmonic", "--uncertainty"],
     "trust with rbf": ["--method", "rbf", "--trust", "1"],
     "noise with harmonic": ["--method", "harmonic", "--noise", "0.1"],
     "gp-range with biharmonic": ["--method", "biharmonic", "--gp-range", "1"],

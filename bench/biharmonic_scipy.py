@@ -16,19 +16,11 @@ each, CG steps, and the largest difference between the Pardiso and the SciPy fie
 import argparse
 import os
 import platform
-import statistics
 import time
 
 import numpy as np
 
-
-def _timed(call, repeat):
-    times, out = [], None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = call()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times), out
+from .default_targets import _timed
 
 
 def main(argv=None):

@@ -21,7 +21,8 @@ from . import accuracy
 from .findings import cell
 
 #: The default's candidates (bounded: never leave the samples' range) and the references, by short name.
-CANDIDATES = ("mf default", "mf pipeline bounded", "mf projected biharmonic", "mf projected hessian", "mf projected curved hessian",
+CANDIDATES = ("mf default", "mf pipeline bounded",
+              "mf projected biharmonic", "mf projected hessian", "mf projected curved hessian",
               "mf projected triharmonic", "mf bounded biharmonic")
 REFERENCES = ("igl biharmonic clipped", "igl biharmonic", "igl harmonic", "RBF TPS")
 OPEN = ("u-strip", "cap-dipoles", "scalp-eeg")

@@ -42,7 +42,8 @@ def test_bench_all_smoke(tmp_path):
     # the head case: one column per EEG montage, or a note saying why it is missing
     assert ("| method | k = 32 (biosemi32) | k = 64 (biosemi64) |" in text) == has_mne
     assert ("case head-eeg skipped: mne is not installed" in text) == (not has_mne)
-    for row in ("manifill default (biharmonic, projected onto the samples' range) |", "libigl biharmonic (k=2, points) |",
+    for row in ("manifill default (biharmonic, projected onto the samples' range) |",
+                "libigl biharmonic (k=2, points) |",
                 "potpourri3d vector heat extend_scalar |", "pyvista Gaussian kernel interpolate |",
                 "MNE spherical spline (interpolate_bads, reg 1e-5) |", "manifill biharmonic, smoothing=auto |"):
         assert row in text, row

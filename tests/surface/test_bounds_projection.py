@@ -144,7 +144,8 @@ def test_command_line(tmp_path, capsys):
 
     V, F, idx, vals = _case(level=2, k=15)
     write_mesh(tmp_path / "m.ply", V, F)
-    (tmp_path / "s.csv").write_text("vertex,value\n" + "".join(f"{i},{v!r}\n" for i, v in zip(idx.tolist(), vals[:, 0].tolist())))
+    rows = zip(idx.tolist(), vals[:, 0].tolist())
+    (tmp_path / "s.csv").write_text("vertex,value\n" + "".join(f"{i},{v!r}\n" for i, v in rows))
     out = tmp_path / "out.csv"
     code, text, err = run(capsys, "reconstruct", tmp_path / "m.ply", tmp_path / "s.csv", "-o", out, "--method",
                           "biharmonic", "--bounds", "samples", "--bounds-mode", "project", "--verbose")

@@ -10,10 +10,10 @@ Linear in the values are: ``harmonic``, ``biharmonic`` and ``triharmonic`` witho
 (``smoothing`` None or a number), ``gvf-harmonic`` with ``hermite`` or ``linear`` curve values
 and no bounds, ``rbf``, and ``gp`` with its range, sigma and noise given. For those
 :meth:`Reconstructor.matrix` gives the n x k interpolation map ``W`` with ``W @ vals ==
-apply(vals).values``. The rest is not linear in the values: the default (monotone curve
-values, bounded by the samples' range), any ``bounds``, ``gvf`` (levels), ``smoothing='auto'``
-(lambda chosen per field), ``auto`` (a method chosen per call) and ``gp`` with fitted
-hyperparameters; they still reuse everything value-independent.
+apply(vals).values``. The rest is not linear in the values: the default (the biharmonic projected
+onto the samples' range: the map's field, then a clip per field), any ``bounds``, ``gvf`` (levels),
+``smoothing='auto'`` (lambda chosen per field), ``auto`` (a method chosen per call) and ``gp`` with
+fitted hyperparameters; they still reuse everything value-independent.
 """
 
 import math
@@ -177,6 +177,9 @@ class Reconstructor:
         o = self.options
         if o.uq.trust is not None and o.uq.untrusted == "nan":
             return False, "trust with untrusted='nan' blanks values by their std"
+        if o.fit.projected:
+            return False, "bounds_mode='project' clips each field onto its bounds (the map before the clip is "\
+                          "the method's: pass bounds=None for it)"
         if o.fit.bounds is not None:
             return False, "bounds make an active set, which depends on the values"
         return self._method.linear(o)

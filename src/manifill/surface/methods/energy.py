@@ -45,7 +45,8 @@ class Energy(Method):
     def fill(self, run):
         o, points = run.options, run.points
         run.step1(self)
-        if self.k == 1 and self.energy_of is None and o.fit.bounds is None and o.fit.smoothing is None and not (points and points.inside):
+        plain = self.k == 1 and self.energy_of is None
+        if plain and o.fit.bounds is None and o.fit.smoothing is None and not (points and points.inside):
             # the harmonic fill with the samples (or the points' vertices) fixed: Steps 5-6 on their own
             b, bc = (run.idx, run.vals) if points is None else (points.idx, points.vals)
             return harmonic_fill(run, b, bc), None

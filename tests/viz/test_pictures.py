@@ -441,7 +441,7 @@ def test_viewer_shows_controls_only_for_what_the_result_has(tmp_path):
     V, F = icosphere(3)
     idx = np.arange(0, len(V), 37)
     shown = {}
-    for method in ("default", "biharmonic"):
+    for method in ("gvf-harmonic", "default"):
         r = reconstruct(V, F, idx, V[idx, 0], method=method)
         page = tmp_path / f"{method}.html"
         write_html(page, V, F, r.values, samples=idx, curves=r.curves)
@@ -452,4 +452,4 @@ def test_viewer_shows_controls_only_for_what_the_result_has(tmp_path):
         box = re.search(r'<label id="curvesBox"[^>]*>', dom).group()
         shown[method] = "display: none" not in box
         assert "display: none" not in re.search(r'<label id="samplesBox"[^>]*>', dom).group()
-    assert shown == {"default": True, "biharmonic": False}
+    assert shown == {"gvf-harmonic": True, "default": False}  # the default (the biharmonic) draws no curves

@@ -29,6 +29,10 @@ OPEN = ("u-strip", "cap-dipoles", "scalp-eeg")
 CLIPPED = "igl biharmonic clipped"
 
 
+def _median(values):
+    return statistics.median(values) if values else float("nan")
+
+
 def summary(res):
     """Rows ``(short, median, median closed, median open, max overshoot, median ratio, worst ratio, cells)``."""
     name_of = {short: name for name, short in res["short"].items()}
@@ -48,9 +52,8 @@ def summary(res):
                 r = cell(case, ref, k) if ref else None
                 if r is not None and r["rmse"] > 0:
                     ratios.append(c["rmse"] / r["rmse"])
-        med = (lambda v: statistics.median(v) if v else float("nan"))
-        rows.append((short, med(errs), med(closed), med(opened), max(overs, default=float("nan")), med(ratios),
-                     max(ratios, default=float("nan")), len(errs)))
+        rows.append((short, _median(errs), _median(closed), _median(opened), max(overs, default=float("nan")),
+                     _median(ratios), max(ratios, default=float("nan")), len(errs)))
     return rows
 
 

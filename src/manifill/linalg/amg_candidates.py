@@ -8,8 +8,8 @@ them to the smoother, and conjugate gradients then need hundreds of steps (401 a
 ~680 at 163k with 100 samples fixed). Here pyamg's smoothed aggregation gets ``B = [1, x, y, z]``
 as its candidates and energy-minimising prolongation smoothing (Olson, Schroder, Tuminaro 2011),
 with symmetric Gauss-Seidel: 70 steps at 163k, 112 at 655k, and the hierarchy costs a few
-seconds. This is the k >= 2 backend ``solver='auto'`` takes without Pardiso (measured in
-``bench/biharmonic_backends.py``); the conjugate gradient loop is :func:`manifill.linalg.pcg.pcg`.
+seconds. This is the k >= 2 backend ``solver='auto'`` takes without Pardiso (measured by
+``python -m bench.default_targets --scipy``); the conjugate gradient loop is :func:`manifill.linalg.pcg.pcg`.
 """
 
 import time
@@ -31,7 +31,8 @@ class CandidateAMG:
     A : (N, N) scipy sparse matrix
         Symmetric positive definite.
     candidates : (N, c) numpy array
-        Vectors ``A`` nearly annihilates (``[1, x, y, z]`` of unit-size positions for a k-harmonic energy).
+        Vectors ``A`` nearly annihilates besides the constants (the unit-size positions ``x, y, z`` for a
+        k-harmonic energy); the constants are added here.
     rtol : float, optional
         Stop when ``||r|| <= rtol * ||R||`` (``TOL.polyharmonic_rtol`` by default).
     maxiter : int, optional
@@ -46,7 +47,7 @@ class CandidateAMG:
     >>> L = poisson((40, 40)).tocsr()
     >>> A = (L @ L).tocsr()
     >>> xy = np.indices((40, 40)).reshape(2, -1).T / 40.0
-    >>> s = CandidateAMG(A, np.column_stack([np.ones(1600), xy]))
+    >>> s = CandidateAMG(A, xy)
     >>> X, info = s.solve(np.ones(1600))
     >>> bool(np.linalg.norm(A @ X[:, 0] - 1) <= 1e-10 * 40), info["solver"]
     (True, 'amg')
@@ -66,8 +67,8 @@ class CandidateAMG:
         self.maxiter = 5000 if maxiter is None else int(maxiter)
         self.A = A.tocsr()
         self.shape = A.shape
-        B = np.asarray(candidates, dtype=np.float64).reshape(A.shape[0], -1)
-        B = B - np.r_[0.0, B[:, 1:].mean(axis=0)] if B.shape[1] > 1 else B
+        C = np.asarray(candidates, dtype=np.float64).reshape(A.shape[0], -1)
+        B = np.column_stack([np.ones(A.shape[0]), C - C.mean(axis=0)]) if A.shape[0] else C
         self.ml = None
         if A.shape[0]:
             sweep = ("gauss_seidel", {"sweep": "symmetric", "iterations": 1})

@@ -475,7 +475,7 @@ def make_linear_solver(A, solver="auto", *, rtol=None, iteration="gauss-seidel",
         ``A`` is symmetric positive definite, as every caller's but a KKT system's is
         (``direct``: Pardiso may factorise it as such).
     candidates : (N, c) numpy array, optional
-        ``amg``: vectors ``A`` nearly annihilates (:class:`~manifill.linalg.amg_candidates.CandidateAMG`).
+        ``amg``: vectors ``A`` nearly annihilates besides constants (:class:`.amg_candidates.CandidateAMG`).
 
     Returns
     -------

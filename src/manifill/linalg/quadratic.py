@@ -292,7 +292,7 @@ class QuadraticSolver:
             self._solver = make_linear_solver(K, solver, rtol=tol, iteration=iteration, tol=tol, maxiter=maxiter,
                                               factoriser=factoriser, spd=Aeq is None,  # KKT: indefinite
                                               candidates=None if candidates is None or Aeq is not None
-                                              else np.column_stack([np.ones(N), candidates[self.unknown]]))
+                                              or solver in ("direct", "iterate") else candidates[self.unknown])
         except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
             if Aeq is None:
                 raise

@@ -27,10 +27,7 @@ from .gradients import gradient_operator
 from .laplacian import mass_matrix
 from .topology import boundary_loops
 
-__all__ = ["hessian_energy", "curved_hessian_energy", "HESSIANS"]
-
-#: The Hessian energies: ``flat`` (ambient second derivatives; libigl's ``hessian_energy``) and ``curved``.
-HESSIANS = ("flat", "curved")
+__all__ = ["hessian_energy", "curved_hessian_energy"]
 
 
 def hessian_energy(V, F):

@@ -66,7 +66,7 @@ class CrossValidation:
     #: Label -> ``(folds, p)``: each fold's error per field.
     field_fold_errors: dict = field(default_factory=dict, repr=False)
 
-    def one_se(self, default):
+    def one_se(self, default, *, combined=False):
         """Per field, the label to use: ``default`` unless another candidate's error is lower by more than one
         standard error of that candidate's fold errors (the one-standard-error rule), then that candidate.
 
@@ -74,6 +74,8 @@ class CrossValidation:
         ----------
         default : str
             The label kept unless the evidence says otherwise.
+        combined : bool, optional
+            Apply the rule once, to the fields' combined error, and give that label to every field.
 
         Returns
         -------
@@ -81,18 +83,17 @@ class CrossValidation:
             One label per field.
         """
         ok = [m for m in self.methods if not self.failures[m] and np.isfinite(self.errors[m])]
+        p = len(self.field_errors[self.methods[0]])
+        errors = {m: [self.errors[m]] if combined else self.field_errors[m] for m in ok}
+        folds = {m: self.fold_errors[m][:, None] if combined else self.field_fold_errors.get(m) for m in ok}
         out = []
-        for j in range(len(self.field_errors[self.methods[0]])):
-            best = min(ok, key=lambda m: (self.field_errors[m][j], self.methods.index(m)))
-            if default not in ok:
-                out.append(best)
-                continue
-            folds = self.field_fold_errors.get(best)
-            e = folds[:, j][np.isfinite(folds[:, j])] if folds is not None else np.zeros(0)
+        for j in range(1 if combined else p):
+            best = min(ok, key=lambda m: (errors[m][j], self.methods.index(m)))
+            e = np.zeros(0) if folds[best] is None else folds[best][:, j][np.isfinite(folds[best][:, j])]
             se = float(np.std(e, ddof=1) / np.sqrt(e.size)) if e.size > 1 else 0.0
-            gain = self.field_errors[default][j] - self.field_errors[best][j]
-            out.append(best if gain > se else default)
-        return out
+            keep = default in ok and errors[default][j] - errors[best][j] <= se
+            out.append(default if keep else best)
+        return out * p if combined else out
 
     def ranking(self):
         """The labels, best first: methods that ran on every fold by error, then the others."""

@@ -128,10 +128,9 @@ def run_folds(surface, idx, vals, candidates, *, folds, seed, options, reconstru
         rel = (pred - vals) / span
         with np.errstate(invalid="ignore"):
             fe = np.sqrt(np.mean(rel[use] ** 2, axis=0)) if use.any() else np.full(p, np.nan)
-            folds_e = np.array([np.sqrt(np.mean(rel[use & (labels == f)] ** 2)) if (use & (labels == f)).any()
-                                else np.nan for f in range(nf)])
             per_field = np.array([np.sqrt(np.mean(rel[use & (labels == f)] ** 2, axis=0)) if (use & (labels == f)).any()
                                   else np.full(p, np.nan) for f in range(nf)])
+            folds_e = np.sqrt(np.mean(per_field ** 2, axis=1))  # every field has the fold's rows: the fields' RMS
         res["errors"][label] = float(np.sqrt(np.mean(fe ** 2)))
         res["field_errors"][label] = fe
         res["fold_errors"][label] = folds_e

@@ -110,6 +110,11 @@ class FitOptions:
         """Whether the bounds are kept by projecting the unbounded field onto them (any method with values)."""
         return self.bounds is not None and self.bounds_mode == "project"
 
+    @property
+    def exact(self):
+        """Whether the bounds are kept by the minimiser within them (only the methods that can bound)."""
+        return self.bounds is not None and not self.projected
+
 
 @dataclass(frozen=True)
 class PointOptions:

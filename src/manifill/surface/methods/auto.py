@@ -58,11 +58,11 @@ class Auto(Method):
         base = o.replace(check=None)
         with run.step("cross-validate", "cross_validate"):
             # on a digital surface only those without a mass matrix, on a cloud only those without faces; with
-            # exact bounds only those that hold them
+            # exact bounds only those that hold them (projected bounds were taken off by the engine)
             usable = [(name, own) for name, own in AUTO_CANDIDATES
                       if not (surface.mass is None and run.lookup(name).needs_triangles)
                       and not (surface.F is None and run.lookup(name).needs_faces)
-                      and (o.fit.bounds is None or o.fit.projected or "bounds" in own or run.lookup(name).can_bound)]
+                      and (o.fit.bounds is None or "bounds" in own or run.lookup(name).can_bound)]
             cands = {label_of(name, own): (name, own) for name, own in usable}
             cv = run_folds(surface, idx, vals, cands, folds=AUTO_FOLDS if k >= AUTO_FOLDS else "loo",
                            seed=o.fill.seed, options=base, reconstruct=run.reconstruct, lookup=run.lookup)
@@ -71,9 +71,8 @@ class Auto(Method):
             raise SolveError(f"method='auto': no candidate ran on every fold (e.g. {cv.ranking()[0]}: {first}); "
                              f"pick a method")
         default = label_of(*AUTO_CANDIDATES[0])
-        chosen = cv.one_se(default)
-        if points is not None and len(set(chosen)) > 1:  # one candidate for all: the rule on the combined error
-            chosen = [_combined(cv, default)] * len(chosen)
+        # samples at positions: one candidate for all fields (the rule on their combined error)
+        chosen = cv.one_se(default, combined=points is not None)
         tick(run.progress, "fill")
         built = points is not None and points.constraint.size and (points.constraint >= 0).all()
         r, values = None, None
@@ -93,14 +92,6 @@ class Auto(Method):
             r.report["points"] = points_report(points, False)
         r.report["auto"] = {**cv.summary(), "fields": chosen, "default": default}
         return r
-
-
-def _combined(cv, default):
-    """The one-standard-error rule on the fields' combined error."""
-    best = cv.best
-    e = cv.fold_errors[best][np.isfinite(cv.fold_errors[best])]
-    se = float(np.std(e, ddof=1) / np.sqrt(e.size)) if e.size > 1 else 0.0
-    return best if default not in cv.errors or cv.errors[default] - cv.errors[best] > se else default
 
 
 AUTO = Auto()

@@ -77,7 +77,7 @@ class Method:
     def check(self, options):
         """Refuse an option this method cannot use (:class:`~manifill.errors.OptionError`, one line)."""
         fit = options.fit
-        if fit.bounds is not None and not fit.projected and not self.can_bound:
+        if fit.exact and not self.can_bound:
             raise OptionError(f"method={self.name!r} takes no bounds; pass bounds=None, or use a method that holds "
                               f"them (e.g. method='biharmonic', bounds='samples'), or bounds_mode='project'")
         if options.preset is not None and "curve_values" in options.given and not self.partitions:

@@ -29,8 +29,7 @@ class Matern(Method):
 
     def check(self, options):
         fit = options.fit
-        if (fit.bounds is not None and not fit.projected) or fit.smoothing is not None \
-                or fit.sample_weights is not None:
+        if fit.exact or fit.smoothing is not None or fit.sample_weights is not None:
             raise OptionError("method='gp' takes its noise as gp={'noise': ...} and no exact bounds (bounds_mode="
                               "'project' clips its mean); leave bounds, "
                               "smoothing and sample_weights out")

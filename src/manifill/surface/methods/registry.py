@@ -140,7 +140,7 @@ def _check_uncertainty(method, o):
     if uncertainty and not method.gives_std:
         raise OptionError(f"uncertainty needs a probability model, and method={method.name!r} has none (the curve "
                           f"pipeline's curve values are estimates); pass method='gp', 'harmonic' or 'biharmonic'")
-    if uncertainty and "bounds" in o.given and o.fit.bounds is not None and not o.fit.projected:
+    if uncertainty and "bounds" in o.given and o.fit.exact:
         raise OptionError("uncertainty and bounds together are not supported: a bounded fill is not a Gaussian "
                           "posterior mean; leave bounds out, or uncertainty, or pass bounds_mode='project'")
     if uq.trust is not None and not uncertainty:

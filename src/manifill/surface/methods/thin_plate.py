@@ -33,7 +33,7 @@ class ThinPlate(Method):
     step_names = ("check", "rbf")
 
     def check(self, options):
-        if options.fit.bounds is not None and not options.fit.projected:
+        if options.fit.exact:
             raise OptionError("method='rbf' has no mesh energy to minimise within bounds; pass bounds=None, or use an "
                               "energy method (e.g. method='biharmonic', bounds='samples'), or "
                               "bounds_mode='project' to clip the spline to them")

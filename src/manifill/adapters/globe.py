@@ -19,7 +19,9 @@ from scipy.spatial import cKDTree
 from ..errors import OptionError, ReadError, SampleError, WriteError
 from ..io.files import atomic_path
 from ..mesh.shapes import icosphere
+from ..memory import check_fits
 from ..surface.locate import locate_points
+from ..surface.methods.registry import method_of
 from ..surface.reconstructor import Reconstructor
 
 
@@ -53,6 +55,28 @@ def xyz_to_lonlat(P):
     return np.where(lon >= 180.0, lon - 360.0, lon), lat
 
 
+#: The globe's memory per vertex of its sphere (the default biharmonic measured 2,700 bytes at 2.6M vertices)
+#: and per vertex or grid cell and step (the fields, their interpolation and the netCDF's array).
+GLOBE_BYTES_PER_VERTEX = 3000
+GLOBE_BYTES_PER_VALUE = 32
+
+
+def _level(resolution):
+    return max(0, math.ceil(math.log2(EDGE_DEGREES / resolution)))
+
+
+def _check_globe_fits(grid, steps, std):
+    """Refuse, before the sphere is built, a grid whose sphere and fields will not fit in memory."""
+    spacing = 1.0 if grid is None else grid
+    if not 0.05 <= spacing <= 60:
+        return  # globe_mesh refuses it with its range
+    n = 10 * 4 ** _level(spacing) + 2
+    cells = 0 if grid is None else int(round(180.0 / grid) + 1) * int(round(360.0 / grid))
+    need = n * GLOBE_BYTES_PER_VERTEX + (n + cells) * GLOBE_BYTES_PER_VALUE * steps * (2 if std else 1)
+    check_fits(need, f"the globe at {spacing:g} degrees (a sphere of {n:,} vertices and a grid of {cells:,} cells, "
+               f"{steps} step(s))", "pass a coarser grid (CLI: --grid)")
+
+
 def globe_mesh(resolution=1.0):
     """The unit icosphere whose edges are at most about ``resolution`` degrees (level 6 for 1 degree: 40,962 vertices).
 
@@ -64,46 +88,93 @@ def globe_mesh(resolution=1.0):
     """
     if not (isinstance(resolution, (int, float)) and 0.05 <= resolution <= 60):
         raise OptionError(f"resolution={resolution!r} degrees; pass a number in [0.05, 60]")
-    level = max(0, math.ceil(math.log2(EDGE_DEGREES / resolution)))
-    return icosphere(level)
+    return icosphere(_level(resolution))
 
 
 def _stations(data, var, lon, lat, station, time):
     """``(lon (k,), lat (k,), values (k, T), times or None, name, attrs)`` of a DataFrame or a Dataset."""
     if hasattr(data, "data_vars"):  # an xarray Dataset
-        names = [v for v in data.data_vars if v not in (lon, lat)] if var is None else [var]
-        if len(names) != 1:
-            raise OptionError(f"the Dataset has {len(names)} variables ({', '.join(map(str, names))}); pass var= one "
-                              f"of them")
-        da = data[names[0]]
-        if station not in da.dims:
-            raise OptionError(f"{names[0]} has dimensions {da.dims}, no {station!r}; pass station= its station "
-                              f"dimension")
-        extra = [d for d in da.dims if d not in (station, time)]
-        if extra:
-            raise OptionError(f"{names[0]} has dimensions {extra} besides {station!r} and {time!r}; select them away")
-        times = da[time] if time in da.dims else None  # the coordinate itself: its name, attrs and encoding
-        values = da.transpose(station, *([time] if times is not None else [])).values
-        lons, lats = data[lon].values, data[lat].values
-        return lons, lats, values.reshape(len(lons), -1), times, str(names[0]), dict(da.attrs)
+        return _dataset_stations(data, var, lon, lat, station, time)
     if not hasattr(data, "columns"):
         raise OptionError(f"stations are a pandas DataFrame or an xarray Dataset, not {type(data).__name__}")
     for c in (lon, lat):
         if c not in data.columns:
-            raise OptionError(f"the DataFrame has no column {c!r}; pass lon= and lat= its longitude and latitude "
-                              f"columns (degrees)")
-    numeric = [c for c in data.columns if c not in (lon, lat, station) and getattr(data[c].dtype, "kind", "O") in "iuf"]
-    cols = numeric if var is None else [var]
+            raise OptionError(f"the stations have no column {c!r} (they have {_listed(data.columns)}); name their "
+                              f"longitude and latitude columns (lon=, lat=; CLI: --lon, --lat), in degrees")
+    if var is not None and var not in data.columns:
+        raise OptionError(f"the stations have no column {var!r} (they have {_listed(data.columns)}); pass var= one "
+                          f"of them (CLI: --var)")
+    rest = [c for c in data.columns if c not in (lon, lat, station)] if var is None else [var]
+    columns = {c: _numbers(data[c], c, strict=var is not None) for c in rest}
+    cols = [c for c in rest if columns[c] is not None]
     if not cols:
-        raise OptionError("the DataFrame has no numeric value column besides lon and lat; add one, or pass var=")
-    try:
-        values = data[cols].to_numpy(dtype=np.float64)
-        where = data[lon].to_numpy(float), data[lat].to_numpy(float)
-    except (TypeError, ValueError) as exc:
-        raise SampleError(f"the stations hold a value that is not a number ({exc}); fix the column or leave it "
-                          f"out (var=)") from None
+        raise OptionError("the stations have no column of numbers besides lon and lat; add one, or pass var=")
+    values = np.column_stack([columns[c] for c in cols])
+    where = _numbers(data[lon], lon, strict=True), _numbers(data[lat], lat, strict=True)
     name = str(cols[0]) if len(cols) == 1 else "value"
     return (*where, values, None, name, {"fields": [str(c) for c in cols]})
+
+
+def _listed(names, most=8):
+    names = [str(n) for n in names]
+    return ", ".join(names[:most]) + (f" and {len(names) - most} more" if len(names) > most else "")
+
+
+def _numbers(column, name, strict):
+    """A DataFrame column as floats (empty cells NaN: no value at that station); None for a column of text alone
+    (station names) unless ``strict``; a cell that is neither a number nor empty is named with its row."""
+    if getattr(column.dtype, "kind", "O") in "iufb":
+        return column.to_numpy(dtype=np.float64)
+    import pandas
+
+    text = column.astype(str).str.strip()
+    empty = column.isna().to_numpy() | (text == "").to_numpy()
+    parsed = pandas.to_numeric(column.where(~empty), errors="coerce").to_numpy(dtype=np.float64)
+    bad = np.flatnonzero(np.isnan(parsed) & ~empty & ~text.str.lower().isin(("nan", "na", "n/a")).to_numpy())
+    if bad.size and not strict and bad.size == (~empty).sum():
+        return None  # text alone: station names or notes, left out
+    if bad.size:
+        i = int(bad[0])
+        raise SampleError(f"column {name!r}, row {i + 1} (line {i + 2} of a CSV with one header line) holds "
+                          f"{str(column.iloc[i])[:40]!r}, not a number ({bad.size} such cell(s)); fix it, or leave the "
+                          f"cell empty for a station without a value")
+    return parsed
+
+
+def _dataset_stations(data, var, lon, lat, station, time):
+    for c in (lon, lat):
+        if c not in data.variables:
+            raise OptionError(f"the stations have no variable {c!r} (they have {_listed(data.variables)}); name "
+                              f"their longitude and latitude variables (lon=, lat=; CLI: --lon, --lat), in degrees")
+    if var is not None and var not in data.data_vars:
+        raise OptionError(f"the stations have no variable {var!r} (they have {_listed(data.data_vars)}); pass var= "
+                          f"one of them (CLI: --var)")
+    names = [v for v in data.data_vars if v not in (lon, lat)] if var is None else [var]
+    if len(names) != 1:
+        raise OptionError(f"the stations have {len(names)} variables ({_listed(names)}); pass var= one of them "
+                          f"(CLI: --var)")
+    da = data[names[0]]
+    if station not in da.dims:
+        raise OptionError(f"{names[0]} has dimensions {da.dims}, no {station!r}; pass station= its station "
+                          f"dimension")
+    extra = [d for d in da.dims if d not in (station, time)]
+    if extra:
+        raise OptionError(f"{names[0]} has dimensions {extra} besides {station!r} and {time!r}; select them away")
+    times = da[time] if time in da.dims else None  # the coordinate itself: its name, attrs and encoding
+    lons, lats = data[lon].values, data[lat].values
+    for what, a in ((names[0], da), (lon, lons), (lat, lats)):
+        kind = np.asarray(a).dtype.kind
+        if kind not in "iufb":
+            raise SampleError(f"the stations' {what!r} holds {_KINDS.get(kind, 'non-numeric')} values, not numbers; "
+                              f"pass a numeric variable (var=, CLI: --var)")
+    if lons.shape != (da.sizes[station],) or lats.shape != lons.shape:
+        raise SampleError(f"{lon!r} and {lat!r} have shapes {lons.shape} and {lats.shape}; each needs one value "
+                          f"per station ({da.sizes[station]}), along {station!r}")
+    values = da.transpose(station, *([time] if times is not None else [])).values.astype(np.float64)
+    return lons, lats, values.reshape(len(lons), -1), times, str(names[0]), dict(da.attrs)
+
+
+_KINDS = {"U": "text", "S": "text", "O": "text", "M": "date", "m": "time-interval", "c": "complex"}
 
 
 def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station", time="time", grid=1.0, mesh=None,
@@ -137,17 +208,20 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
     lons, lats, values, times, name, attrs = _stations(data, var, lon, lat, station, time)
     bad = np.flatnonzero(~(np.isfinite(lons) & np.isfinite(lats) & (np.abs(lats) <= 90)))
     if bad.size:
-        raise SampleError(f"station {int(bad[0])} has longitude {lons[bad[0]]!r} and latitude {lats[bad[0]]!r}; pass "
-                          f"finite degrees with latitudes in [-90, 90]")
+        raise SampleError(f"station {int(bad[0])} has longitude {float(lons[bad[0]]):g} and latitude "
+                          f"{float(lats[bad[0]]):g}; pass finite degrees with latitudes in [-90, 90]")
     if grid is not None and not (isinstance(grid, (int, float)) and grid > 0
                                  and abs(180.0 / grid - round(180.0 / grid)) < 1e-9):
         raise OptionError(f"grid={grid!r} degrees does not divide 180; pass a spacing that does (1, 0.5, 0.25, 2.5, ...)")
+    if mesh is None:
+        _check_globe_fits(grid, values.shape[1], std)
     V, F = globe_mesh(grid if grid is not None else 1.0) if mesh is None else mesh
     V = np.asarray(V, dtype=np.float64)
     R = float(np.median(np.linalg.norm(V, axis=1)))
     P = lonlat_to_xyz(lons, lats) * R
     options.setdefault("solver", "direct")  # one factorisation for every time step (AMG would iterate per step)
-    X, S = _fields(V, F, P, values, method, std, options)
+    options.setdefault("duplicates", "mean")  # stations crowding one vertex of a coarse globe: averaged, and said
+    X, S, notes = _fields(V, F, P, values, method, std, options)
     fields = attrs.pop("fields", None)
     dims_t = [times.name] if times is not None else ([] if X.shape[1] == 1 else ["field"])
     coords_t = {times.name: times} if times is not None else ({} if X.shape[1] == 1 else {"field": fields or list(
@@ -182,8 +256,10 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
     made = f"manifill {method} from {len(lons)} stations"
     ds.attrs.update({"Conventions": "CF-1.8", "source": f"{attrs['source']}; {made}" if "source" in attrs else made,
                      "history": f"reconstructed on a sphere of {len(V):,} vertices"})
-    return ds if std else ds[name].assign_attrs(Conventions="CF-1.8", source=ds.attrs["source"],
-                                                history=ds.attrs["history"])
+    if notes:
+        ds.attrs["comment"] = "; ".join(notes)
+    return ds if std else ds[name].assign_attrs(**{k: ds.attrs[k] for k in ("Conventions", "source", "history",
+                                                                              "comment") if k in ds.attrs})
 
 
 def write_netcdf(field, path):
@@ -191,7 +267,7 @@ def write_netcdf(field, path):
     (as CF puts them), through xarray's ``to_netcdf``."""
     ds = field if hasattr(field, "data_vars") else field.to_dataset()
     glob = {k: v for k, v in (field.attrs if not hasattr(field, "data_vars") else ds.attrs).items()
-            if k in ("Conventions", "source", "history")}
+            if k in ("Conventions", "source", "history", "comment")}
     ds = ds.assign_attrs(glob)
     for v in ds.data_vars:
         ds[v].attrs = {k: a for k, a in ds[v].attrs.items() if k not in glob}
@@ -201,8 +277,9 @@ def write_netcdf(field, path):
 
 
 def _fields(V, F, P, values, method, std, options):
-    """``(X, S)`` on the vertices, ``(n, T)``: one Reconstructor per set of stations reporting (a station's missing
-    values, NaN, leave it out of those steps; the steps with the same stations share a factorisation)."""
+    """``(X, S, notes)``: the fields on the vertices, ``(n, T)``, and what the summary should say (steps left
+    empty, stations averaged). One Reconstructor per set of stations reporting (a station's missing values, NaN,
+    leave it out of those steps; the steps with the same stations share a factorisation)."""
     finite = np.isfinite(values)
     X = np.full((len(V), values.shape[1]), np.nan)
     S = np.full_like(X, np.nan) if std else None
@@ -210,31 +287,46 @@ def _fields(V, F, P, values, method, std, options):
     if not any(rows.sum() >= 3 for rows in patterns):
         raise SampleError(f"no step has three stations reporting (at most {int(finite.sum(axis=0).max())} of "
                           f"{len(P)} have a value); a field needs at least three")
+    empty, merged = [], 0
     for g, rows in enumerate(patterns):
         cols = np.flatnonzero(np.ravel(which) == g)
         if rows.sum() < 3:
-            continue  # too few stations reporting: left NaN
+            empty.extend(cols.tolist())  # too few stations reporting: left NaN, and said
+            continue
         options = {**options, "uncertainty": True if std else options.get("uncertainty")}
-        r = _reconstruct(V, F, P[rows], values[np.ix_(rows, cols)], method, options)
+        r, shared = _reconstruct(V, F, P[rows], values[np.ix_(rows, cols)], method, options)
+        merged = max(merged, shared)
         X[:, cols] = np.asarray(r.values).reshape(len(V), -1)
         if std:
             S[:, cols] = np.asarray(r.std).reshape(len(V), -1)
-    return X, S
+    notes = []
+    if empty:
+        shown = ", ".join(str(c) for c in sorted(empty)[:5]) + (", ..." if len(empty) > 5 else "")
+        notes.append(f"{len(empty)} steps (step {shown}) had fewer than three stations reporting and are left empty "
+                     f"(NaN)")
+    if merged:
+        notes.append(f"{merged} stations shared the nearest vertex of the sphere with another and were averaged "
+                     f"there; a finer grid keeps them apart")
+    return X, S, notes
 
 
 def _reconstruct(V, F, P, vals, method, options):
-    """Stations at their positions; where they crowd (more in a triangle than its corners can hold apart), at their
-    nearest vertices, several on one vertex averaged."""
+    """``(result, stations averaged)``: the stations at their positions; where they crowd (more in a triangle than
+    its corners can hold apart), or for a method that takes vertex samples alone, at their nearest vertices,
+    several on one vertex averaged (with ``duplicates='mean'``)."""
+    nearest = cKDTree(V).query(P)[1]
+    shared = len(nearest) - np.unique(nearest).size
     try:
-        return Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options).apply(vals)
+        r = Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options)
+        return r.apply(vals), (0 if method_of(r.method).at_points else shared)
     except SampleError as exc:
         if "not independent" not in str(exc):
             raise
-    return Reconstructor(V, F, cKDTree(V).query(P)[1], method=method, fields=vals.shape[1],
-                         **{"duplicates": "mean", **options}).apply(vals)
+    return Reconstructor(V, F, nearest, method=method, fields=vals.shape[1],
+                         **{"duplicates": "mean", **options}).apply(vals), shared
 
 
-def globe_file(stations, out, *, var=None, grid=1.0, method="biharmonic", **options):
+def globe_file(stations, out, *, var=None, grid=1.0, method="biharmonic", lon="lon", lat="lat", **options):
     """``manifill globe``: a CSV of stations (``lon``, ``lat``, value columns) or a netCDF of them (a ``station``
     dimension) to a netCDF on a regular grid; returns a one-line summary.
 
@@ -259,9 +351,10 @@ def globe_file(stations, out, *, var=None, grid=1.0, method="biharmonic", **opti
     except (ValueError, OSError, UnicodeDecodeError) as exc:
         raise ReadError(f"{src.name}: could not be read as stations ({str(exc).splitlines()[0][:120]}); pass a CSV "
                         f"with lon and lat columns or a netCDF with a station dimension") from None
-    field = reconstruct_globe(data, var=var, grid=grid, method=method, **options)
+    field = reconstruct_globe(data, var=var, grid=grid, method=method, lon=lon, lat=lat, **options)
     write_netcdf(field, out)
-    return f"wrote {out.name}: {field.name} on {' x '.join(f'{d} {n}' for d, n in field.sizes.items())}"
+    said = f" ({field.attrs['comment']})" if field.attrs.get("comment") else ""
+    return f"wrote {out.name}: {field.name} on {' x '.join(f'{d} {n}' for d, n in field.sizes.items())}{said}"
 
 
 _LAT = {"standard_name": "latitude", "long_name": "latitude", "units": "degrees_north", "axis": "Y"}

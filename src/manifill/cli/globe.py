@@ -16,6 +16,11 @@ def add_parser(sub):
                                    "grid as a CF-annotated netCDF (needs the [xarray] extra).")
     s.add_argument("stations", help="a CSV (lon, lat, value columns) or a netCDF of stations")
     s.add_argument("--var", default=None, help="the variable (netCDF) or value column (CSV); default: all")
+    s.add_argument("--lon", default="lon", help="the longitude column or variable, degrees (default: lon)")
+    s.add_argument("--lat", default="lat", help="the latitude column or variable, degrees (default: lat)")
+    s.add_argument("--duplicates", choices=("mean", "error"), default="mean",
+                   help="stations that fall on one vertex of the sphere (a coarse grid, a method that takes vertex "
+                        "samples): average them (default) or refuse")
     s.add_argument("--grid", type=float, default=1.0, help="the grid's spacing in degrees (default: 1)")
     s.add_argument("--method", default="biharmonic", help="any reconstruct method (default: biharmonic)")
     s.add_argument("--smoothing", default=None, help="a number or 'auto' (noisy stations)")
@@ -27,5 +32,6 @@ def add_parser(sub):
 def run(args):
     """Write the netCDF and say what it holds."""
     options = {} if args.smoothing is None else {"smoothing": smoothing_arg(args.smoothing)}
-    print(globe_file(args.stations, args.output, var=args.var, grid=args.grid, method=args.method, **options))
+    print(globe_file(args.stations, args.output, var=args.var, grid=args.grid, method=args.method, lon=args.lon,
+                     lat=args.lat, duplicates=args.duplicates, **options))
     return 0

@@ -25,8 +25,8 @@ from ..errors import OptionError
 #: The warning filter handed to multiprocessing's resource tracker (see :func:`local_cluster`).
 QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 
-__all__ = ["IN_FLIGHT", "EXTRA", "SCHEDULER_ENV", "need_distributed", "local_cluster", "dask_client", "ordered_map",
-           "one_at_a_time"]
+__all__ = ["IN_FLIGHT", "EXTRA", "SCHEDULER_ENV", "need_distributed", "memory_bytes", "local_cluster", "dask_client",
+           "ordered_map", "one_at_a_time"]
 
 #: Dask's own variable naming the scheduler of an existing cluster.
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -56,6 +56,39 @@ def need_distributed(what="this"):
     return distributed
 
 
+def memory_bytes(limit):
+    """A worker's memory limit in bytes: ``None`` or ``'auto'`` give None (Dask's share of the machine), a number
+    of bytes or a size (``'4GB'``, ``'512 MiB'``) its bytes.
+
+    Raises
+    ------
+    OptionError
+        Not a size, or not above zero.
+
+    Examples
+    --------
+    >>> memory_bytes("4GB"), memory_bytes(1024), memory_bytes("auto")
+    (4000000000, 1024, None)
+    """
+    if limit is None or (isinstance(limit, str) and limit.strip().lower() == "auto"):
+        return None
+    fix = "pass bytes or a size such as 4GB or 512MiB (CLI: --memory-limit 4GB)"
+    if isinstance(limit, bool) or not isinstance(limit, (int, float, str)):
+        raise OptionError(f"memory_limit={limit!r} is not a size; {fix}")
+    if isinstance(limit, str):
+        from dask.utils import parse_bytes
+
+        try:
+            value = parse_bytes(limit.strip())
+        except (ValueError, TypeError):
+            raise OptionError(f"memory_limit={limit!r} is not a size; {fix}") from None
+    else:
+        value = limit
+    if not (value >= 1 and value < 2**63):
+        raise OptionError(f"memory_limit={limit!r} is not a size above zero; {fix}")
+    return int(value)
+
+
 def local_cluster(workers, memory_limit="auto", what="this"):
     """A ``distributed.LocalCluster`` of ``workers`` processes, one thread each, for manifill's work.
 
@@ -81,7 +114,10 @@ def local_cluster(workers, memory_limit="auto", what="this"):
     # with this interpreter's -W options) is told to keep quiet about it
     if QUIET_TRACKER not in sys.warnoptions:
         sys.warnoptions.append(QUIET_TRACKER)
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": env}):
+    # a worker over its limit's pause fraction stops taking tasks until its memory falls, which a process that
+    # holds its own heap never does: the batch would wait for ever. Without the pause a worker over its limit is
+    # restarted by its nanny instead, and manifill's own estimates refuse what will not fit before it runs
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": env, "distributed.worker.memory.pause": False}):
         return distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                         memory_limit=memory_limit, dashboard_address=":0",
                                         silence_logs=logging.ERROR)
@@ -134,7 +170,8 @@ def dask_client(scheduler=None, workers=None, memory_limit=None, *, local=True, 
         return
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise OptionError(f"workers={workers!r} is not a whole number >= 1; pass one (default: one per core)")
-    cluster = local_cluster(workers or os.cpu_count() or 1, "auto" if memory_limit is None else memory_limit, what)
+    limit = memory_bytes(memory_limit)
+    cluster = local_cluster(workers or os.cpu_count() or 1, "auto" if limit is None else limit, what)
     with cluster, distributed.Client(cluster) as client:
         yield client
 

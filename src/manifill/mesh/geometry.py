@@ -11,6 +11,7 @@ zero-area faces and coinciding vertices are :mod:`manifill.validate.degenerate`.
 import numpy as np
 
 from ..validate import as_mesh, check_option, double_areas, unit_scale
+from ..validate.scale import check_size
 
 __all__ = ["AREAS", "cotangents", "face_areas", "vertex_areas"]
 
@@ -143,6 +144,7 @@ def vertex_areas(V, F, *, kind="barycentric"):
     [0.25, 0.125, 0.125]
     """
     check_option("kind", kind, AREAS)
+    check_size(V, 2, "the mesh", "areas", "give its vertices in other units (e.g. km or mm)")
     n = len(V)
     Vs, s = _scaled(V)
     if kind == "barycentric":

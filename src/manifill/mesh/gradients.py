@@ -18,6 +18,8 @@ The :mod:`manifill.mesh.roots` scale these operators by the square roots of the 
 import numpy as np
 import scipy.sparse as sp
 
+from ..validate.scale import unit_scale
+
 __all__ = ["gradient_operator", "tet_gradient_operator", "cell_gradients", "vertex_gradients", "grid_gradients"]
 
 
@@ -57,6 +59,8 @@ def gradient_operator(V, F):
     if V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
     F = np.asarray(F, dtype=np.int64)
+    s = unit_scale(V)  # a power of two: on V / s the products neither overflow nor underflow, and are exact
+    V = V if s == 1.0 else V * (1.0 / s)
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     N = _cross(b - a, c - a)
     dbl = np.linalg.norm(N, axis=1)  # twice the area
@@ -65,8 +69,8 @@ def gradient_operator(V, F):
     unit[ok] = N[ok] / dbl[ok, None]
     inv = np.zeros_like(dbl)
     inv[ok] = 1.0 / dbl[ok]
-    coeffs = [_cross(unit, e) * inv[:, None] for e in (c - b, a - c, b - a)]
-    return _assemble(F, coeffs, len(V)), 0.5 * dbl
+    coeffs = [_cross(unit, e) * (inv / s)[:, None] for e in (c - b, a - c, b - a)]
+    return _assemble(F, coeffs, len(V)), (0.5 * dbl * s) * s
 
 
 def tet_gradient_operator(V, T):

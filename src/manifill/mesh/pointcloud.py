@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 from ..errors import MeshError
 from ..tolerances import TOL
 from ..validate.options import first_entries
-from ..validate.scale import unit_scale
+from ..validate.scale import check_size, unit_scale
 from .graph import edge_graph, graph_laplacian, quantised_lengths
 
 __all__ = ["NEIGHBOURS", "RAY", "Cloud", "cloud_neighbours"]
@@ -39,15 +39,26 @@ RAY = 1e-9
 NEIGHBOURS = 16
 
 
+#: Neighbours looked at beyond the ``k`` nearest, so that points at one distance (a regular grid's rings) are
+#: chosen by their index, not by round-off, which changes with the cloud's units.
+TIE_SPARE = 8
+
+
 def cloud_neighbours(P, k):
-    """``(nbr, dist)``: each point's ``k`` nearest other points, nearest first, and their distances."""
+    """``(nbr, dist)``: each point's ``k`` nearest other points, nearest first, and their distances.
+
+    Distances equal to a relative ``TOL.graph_length_quantum`` of the nearest one's are ties, broken by the
+    points' indices: the neighbours are the same in any units.
+    """
     tree = cKDTree(P)
-    dist, nbr = tree.query(P, k=k + 1, workers=-1)
-    # the point itself comes first unless another point coincides with it
-    self_first = nbr[:, 0] == np.arange(len(P))
-    out = np.where(self_first[:, None], nbr[:, 1:], nbr[:, :-1])
-    d = np.where(self_first[:, None], dist[:, 1:], dist[:, :-1])
-    return out.astype(np.int64), d
+    m = min(k + 1 + TIE_SPARE, len(P))
+    dist, nbr = tree.query(P, k=m, workers=-1)
+    self_ = nbr == np.arange(len(P))[:, None]
+    unit = np.maximum(dist[:, 1:2], TOL.tiny) * TOL.graph_length_quantum
+    key = np.round(dist / unit)
+    key[self_] = -1.0  # the point itself first, even where another coincides with it
+    order = np.lexsort((nbr, key), axis=1)[:, 1:k + 1]
+    return np.take_along_axis(nbr, order, 1).astype(np.int64), np.take_along_axis(dist, order, 1)
 
 
 class Cloud:
@@ -89,6 +100,7 @@ class Cloud:
 
     def __init__(self, P, neighbours=NEIGHBOURS):
         P = np.asarray(P, dtype=np.float64)
+        check_size(P, 2, "the point cloud", "areas", "give its points in other units (e.g. km or mm)")
         self.n, self.k = len(P), int(min(neighbours, len(P) - 1))
         self.scale = unit_scale(P)  # a power of two: lengths, areas, cotangents exact in any units
         self.P = P
@@ -99,6 +111,7 @@ class Cloud:
             raise MeshError(f"the point cloud has {same.size} points at the same position as another (point "
                             f"{first_entries(same)}); merge duplicate points before reconstructing")
         self.spacing = float(np.median(dist[:, 0])) * self.scale
+        _refuse_clusters(dist[:, 0] * self.scale, self.nbr[:, 0], self.spacing)
         frame = _frames(Pu, self.nbr)  # the fans need a tangent plane, not its orientation
         fan_a, fan_b = _umbrellas(Pu, self.nbr, frame)
         L, M = _cotan(Pu, self.nbr, fan_a, fan_b, self.n)
@@ -188,6 +201,18 @@ class Cloud:
         return {"points": self.n, "neighbours": self.k, "graph": "local Delaunay neighbours among the "
                 f"{self.k} nearest", "edges": int(len(self.E)), "components": self.components,
                 "spacing": self.spacing}
+
+
+def _refuse_clusters(nearest, which, spacing):
+    """Refuse points much nearer to another than the cloud's median spacing (``TOL.cloud_cluster``), before any
+    operator is built on them: their fans are needles whose weights make the fills singular or wrong."""
+    limit = TOL.cloud_cluster * spacing
+    near = np.flatnonzero(nearest < limit)
+    if near.size:
+        i = int(near[0])
+        raise MeshError(f"the point cloud has {near.size} points nearer than {limit:.3g} to another ({TOL.cloud_cluster:g} "
+                        f"of its median spacing {spacing:.3g}; point {i} is {nearest[i]:.3g} from point "
+                        f"{int(which[i])}): merge or drop such clusters (keep one point of each) before reconstructing")
 
 
 def _frames(Pu, nbr):

@@ -26,7 +26,9 @@ from ..errors import OptionError, SampleError
 from ..mesh.cut import cut_mesh
 from ..mesh.edges import EdgeIndex
 from ..mesh.graph import mesh_graph
+from ..validate import bbox_diagonal, unit_scale
 from ..validate.options import first_entries
+from .samples import distance_limit
 
 __all__ = ["Cut", "barrier_edges", "barrier_faces", "renumber"]
 
@@ -121,7 +123,7 @@ def _path_edges(V, G, lookup, path, j):
     if P.ndim == 2 and P.shape[1] == 3 and P.dtype.kind == "f":
         if not np.isfinite(P).all():
             raise OptionError(f"barrier {j} has a NaN or infinite position; give finite (k, 3) positions")
-        _, verts = cKDTree(V).query(P)
+        verts = _snapped(V, P, j)
     elif P.ndim == 1 and P.dtype.kind in "iu":
         verts = P.astype(np.int64)
         bad = np.flatnonzero((verts < 0) | (verts >= len(V)))
@@ -148,6 +150,24 @@ def _path_edges(V, G, lookup, path, j):
         for x, y in zip(walk[:-1], walk[1:]):
             out.append(int(lookup[min(x, y), max(x, y)]) - 1)
     return np.asarray(out, dtype=np.int64)
+
+
+def _snapped(V, P, j):
+    """The nearest vertices of a barrier's positions; a position farther from the mesh than a sample may be is
+    refused as samples are ("wrong units?")."""
+    sc = unit_scale(V)
+    tree = cKDTree(V / sc)
+    dist, verts = tree.query(P / sc)
+    dist = dist * sc
+    diag = bbox_diagonal(V)
+    limit = distance_limit(tree, sc, diag)
+    far = np.flatnonzero(~(dist <= limit))
+    if far.size:
+        i = int(far[np.argmax(dist[far])])
+        raise OptionError(f"barrier {j} has {far.size} points far from the mesh (point {i}: {dist[i]:.3g} from the "
+                          f"nearest vertex, {dist[i] / diag:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); "
+                          f"wrong units? Give the barrier's positions in the mesh's units")
+    return verts
 
 
 class Cut:

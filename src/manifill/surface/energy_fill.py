@@ -29,6 +29,7 @@ from ..linalg.quadratic import QuadraticSolver
 from ..linalg.smoothing import smooth
 from ..mesh.topology import pattern_components
 from ..tolerances import TOL
+from ..validate.scale import LOW_DECADES, check_size
 from .options import FitOptions
 from .points import eliminate_rows
 from .polyharmonic import PolyharmonicSolver, energy_matrix, positions
@@ -209,10 +210,16 @@ def _energy(surface, weights, k):
     if surface.mass is None:
         raise OptionError(f"the {'bi' if k == 2 else 'tri'}harmonic energy needs triangles (a mass matrix); "
                           f"a digital surface has none: use method='harmonic' or a tetrahedral solid")
-
+    if k > 2:  # the energy divides by the areas k - 1 times: a size whose powers leave floating point is refused
+        check_size(surface.V, 2 * (k - 1), "the surface",
+                   f"areas to the power {k - 1} (the {_ORDER.get(k, 'k-')}harmonic energy divides by them)",
+                   "use a lower order, or give the positions in other units", decades=LOW_DECADES)
     # the Voronoi mass, as igl.harmonic(V, F, b, bc, k) uses (manifill.surface.polyharmonic.biharmonic's default);
     # a point cloud's own (its fans' mixed areas)
     return energy_matrix(L, surface.mass("voronoi", weights), k)
+
+
+_ORDER = {3: "tri"}
 
 
 def _smoothed(A, n, idx, vals, smoothing, sample_weights, k, Aeq=None, beq=None):

@@ -28,6 +28,7 @@ from ..linalg.gpdraws import posterior_draws
 from ..linalg.spde import MaternShape
 from ..mesh.roots import edge_root, gradient_root, laplacian_root
 from ..mesh.topology import pattern_components
+from ..validate.scale import LOW_DECADES, check_size
 
 __all__ = ["VARIANCE_OPTIONS", "gp_draws", "reconstruct_gp", "energy_uncertainty", "trust_mask"]
 
@@ -147,6 +148,9 @@ def reconstruct_gp(surface, idx, vals, *, gp=None, weights="cotan", solver="auto
                           f"leave weights out")
     if solver == "iterate":
         raise OptionError("method='gp' solves with 'direct' or 'amg' (or 'auto'), not solver='iterate'")
+    # the Matern operator's precision holds kappa^4, the inverse of a squared area
+    check_size(surface.V, 4, "the surface", "squared areas (the gp's precision divides by them)",
+               "give the positions in other units", decades=LOW_DECADES)
     V = surface.V
     bakka = surface.barrier_faces is not None
     shape = _matern(surface, opts.alpha, opts.barrier_range if bakka else None)

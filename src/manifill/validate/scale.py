@@ -9,7 +9,10 @@ import math
 
 import numpy as np
 
-__all__ = ["UNIT_WINDOW", "scale_of", "unit_scale", "scale_and_diagonal", "bbox_diagonal"]
+from ..errors import MeshError
+
+__all__ = ["UNIT_WINDOW", "scale_of", "unit_scale", "scale_and_diagonal", "bbox_diagonal", "check_size", "FLOAT_DECADES",
+           "LOW_DECADES"]
 
 #: Positions whose largest bounding-box half-extent has a binary exponent within
 #: ``-UNIT_WINDOW .. UNIT_WINDOW`` (about 2e-10 to 4e9) are used as they are: products of
@@ -120,3 +123,41 @@ def bbox_diagonal(V):
     """
     s, d = scale_and_diagonal(V)
     return d * s if d > 0 else 1.0
+
+
+#: Decimal exponents a computed quantity may reach (float64 holds about 1e-308 to 1e308; kept off the edge).
+FLOAT_DECADES = 306
+#: ... for a power of the areas multiplied with others (the triharmonic energy, the gp's precision): a vertex's
+#: area is the size squared over the vertex count, the Laplacian's weights reach 1e4 (measured: the triharmonic
+#: energy of a 642-vertex sphere overflows at 1e-76 units, 1e-302 by the size alone).
+LOW_DECADES = 280
+
+
+def check_size(V, power, what, quantity, fix, decades=FLOAT_DECADES):
+    """Refuse positions whose size to ``power`` (areas: 2; the triharmonic energy's squared areas: 4) leaves
+    floating point, with one line naming the size, the quantity and the fix. ``decades`` is the largest decimal
+    exponent allowed (less than 306 where the quantity is one factor among others, as a vertex's share of the
+    area is smaller than the size squared).
+
+    Raises
+    ------
+    MeshError
+
+    Examples
+    --------
+    >>> check_size(np.array([[0.0, 0, 0], [1e100, 0, 0]]), 2, "the cloud", "areas", "rescale it")
+    >>> check_size(np.array([[0.0, 0, 0], [1e200, 0, 0]]), 2, "the cloud", "areas", "rescale it")
+    Traceback (most recent call last):
+    ...
+    manifill.errors.MeshError: the cloud is 1e+200 units across: its areas would be about 1e+400, beyond floating point; rescale it
+    """
+    V = np.asarray(V, dtype=np.float64).reshape(len(V), -1)
+    if V.size == 0:
+        return
+    h = 2.0 * max(_half_extents(V))
+    if not (h > 0 and np.isfinite(h)):
+        return
+    exponent = math.log10(h) * power
+    if abs(exponent) > decades:
+        raise MeshError(f"{what} is {h:.3g} units across: its {quantity} would be about 1e{round(exponent):+d}, "
+                        f"beyond floating point; {fix}")

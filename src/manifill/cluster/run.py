@@ -235,11 +235,12 @@ def _collect(distributed, futures, rows):
 
 def _refusal(job, limit):
     """Why a job will not fit in a local worker of ``limit`` bytes (its estimate and a worker's own memory), or
-    None. A job whose inputs cannot be read is left to fail with its own message when it runs."""
+    None. A job whose inputs cannot be read is left to fail with its own message when it runs, unless no worker
+    can run with the limit at all."""
     try:
         need = job_memory(job)
     except ManifillError:
-        return None
+        need = None  # its own error when it runs, if a worker can run at all
     total = WORKER_BYTES + (need or 0)
     if total <= limit:
         return None

@@ -18,19 +18,13 @@ CI budget: this whole file runs in about 40 s on the 2-core CI machine (``--dura
 format and class at the end (``pytest tests/io/test_fuzz.py -p no:cacheprovider``).
 """
 
-import base64
-import binascii
 import io
-import logging
 import os
 import re
 import shutil
-import struct
 import time
 import warnings
 from collections import Counter, defaultdict
-from contextlib import contextmanager
-from dataclasses import dataclass, field
 from itertools import count
 from pathlib import Path
 
@@ -40,9 +34,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from manifill.errors import ManifillError, MeshError, ReadError, SampleError
+from manifill.errors import MeshError, ReadError, SampleError
 from manifill.surface.samples import Samples
 from manifill.mesh.shapes import icosphere
+from fuzzing import SLOW, Seed, base64_runs, LogRecords, peak_memory, damage, run_command, strategies_for
 from manifill.io import (read_barriers, read_mask, read_mesh_file, read_samples, read_tets, read_vti, write_mesh,
                          write_tets, write_vti)
 
@@ -50,7 +45,6 @@ COUNT = int(os.environ.get("MANIFILL_FUZZ_COUNT", "0") or 0)
 #: examples per (format, strategy) and per command: 60 in CI, N in the counting mode
 EXAMPLES = COUNT or 60
 CLI_EXAMPLES = COUNT or 60
-SLOW = 5.0  # seconds: a read slower than this on a file of a few kB counts as a hang
 MOST_MEMORY = 64 * 2**20  # bytes: a file of a few kB that makes a reader allocate more lies about its size
 FUZZ = settings(derandomize=True, database=None, max_examples=EXAMPLES, deadline=None, print_blob=False,
                 suppress_health_check=list(HealthCheck))
@@ -68,19 +62,6 @@ SAMPLE_VERTICES = [0, 5, 17, 30, 41]
 # ---------------------------------------------------------------------------
 # seed files
 # ---------------------------------------------------------------------------
-
-
-@dataclass
-class Seed:
-    """One valid file: its name, bytes, the reader that takes it, and which damage applies."""
-
-    label: str
-    name: str
-    data: bytes
-    reader: str
-    text: bool = False  # a text format: lines can be duplicated or deleted
-    runs: list = field(default_factory=list)  # (start, end) of base64 runs that decode
-    zip: bool = False
 
 
 def _cube_tets():
@@ -120,7 +101,7 @@ def _build_seeds(folder):
         path.parent.mkdir()
         _quiet(write, path)
         data = path.read_bytes()
-        out[label] = Seed(label, name, data, reader, text, _base64_runs(data), zipped)
+        out[label] = Seed(label, name, data, reader, text, base64_runs(data), zipped)
 
     mesh = meshio.Mesh(V, [("triangle", F)], point_data={"t": t})
     bad = V.copy()
@@ -224,26 +205,6 @@ def _build_seeds(folder):
     return out
 
 
-def _base64_runs(data):
-    """(start, end) of every stretch of valid base64 in the text of an XML element (headers and blocks apart)."""
-    if not data.startswith(b"<"):
-        return []
-    runs = []
-    for m in re.finditer(rb">\s*([A-Za-z0-9+/=]{8,})", data):
-        for part in re.finditer(rb"[A-Za-z0-9+/]+={0,2}", m.group(1)):
-            if _b64ok(part.group()):
-                runs.append((m.start(1) + part.start(), m.start(1) + part.end()))
-    return runs
-
-
-def _b64ok(run):
-    try:
-        base64.b64decode(run, validate=True)
-    except (binascii.Error, ValueError):
-        return False
-    return len(run) % 4 == 0
-
-
 def _quiet(fn, *args, **kwargs):
     """Run a writer whose notes (meshio's on Gmsh tags, PLY integers) are not what is tested."""
     with warnings.catch_warnings(), io.StringIO() as sink:
@@ -291,129 +252,6 @@ def seeds():
 # ---------------------------------------------------------------------------
 # damage
 # ---------------------------------------------------------------------------
-
-#: what a number in a header becomes
-HUGE = [b"2147483648", b"4294967296", b"9223372036854775808", b"18446744073709551616", b"1" + b"0" * 30,
-        b"1e308", b"1e309", b"-1", b"-2147483649", b"0", b"1.5", b"-0.5", b"abc", b"nan", b"inf", b"-inf", b"",
-        b"0x10", b"+7", b"99999999999999999999999999999999999999999999999999999999999999999999999999"]
-_NUMBER = re.compile(rb"(?<![\w.+/-])[-+]?[0-9]+(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?(?![\w.+/])")
-#: words written over a zip header field
-ZIP_VALUES = [0, 1, 2, 0x7FFF, 0xFFFF, 0x7FFFFFFF, 0xFFFFFFFF, 1000]
-#: byte offset and width of the size/count fields of a local header, a central directory entry and the end record
-ZIP_FIELDS = {b"PK\x03\x04": [(8, 2), (14, 4), (18, 4), (22, 4), (26, 2), (28, 2)],
-              b"PK\x01\x02": [(10, 2), (16, 4), (20, 4), (24, 4), (28, 2), (30, 2), (32, 2), (42, 4)],
-              b"PK\x05\x06": [(8, 2), (10, 2), (12, 4), (16, 4), (20, 2)]}
-#: words written over the binary headers inside base64 (block counts and sizes)
-WORDS = [0, 1, 3, 0x7FFFFFFF, 0xFFFFFFFF, 2**32, 2**62, 2**64 - 1]
-
-
-def strategies_for(seed):
-    """The damage strategies that apply to ``seed``."""
-    names = ["truncate", "flip", "insert", "delete"]
-    if _NUMBER.search(seed.data):
-        names.append("number")
-    if seed.text:
-        names.append("lines")
-    if seed.runs:
-        names += ["payload", "base64"]
-    if seed.zip:
-        names.append("zip")
-    return names
-
-
-def damage(seed, strategy):
-    """A hypothesis strategy of damaged copies of ``seed.data``."""
-    data, n = seed.data, len(seed.data)
-    at = st.integers(0, n - 1)
-    if strategy == "truncate":
-        return at.map(lambda k: data[:k])
-    if strategy == "flip":
-        return st.tuples(at, st.integers(1, 255)).map(lambda a: data[:a[0]] + bytes([data[a[0]] ^ a[1]])
-                                                       + data[a[0] + 1:])
-    if strategy == "insert":
-        return st.tuples(st.integers(0, n), st.binary(min_size=1, max_size=8)).map(
-            lambda a: data[:a[0]] + a[1] + data[a[0]:])
-    if strategy == "delete":
-        return st.tuples(at, st.integers(1, 16)).map(lambda a: data[:a[0]] + data[a[0] + a[1]:])
-    if strategy == "number":
-        spans = [m.span() for m in _NUMBER.finditer(data)]
-        return st.tuples(st.sampled_from(spans), st.sampled_from(HUGE)).map(
-            lambda a: data[:a[0][0]] + a[1] + data[a[0][1]:])
-    if strategy == "lines":
-        lines = data.splitlines(keepends=True)
-        return st.tuples(st.sampled_from(["dup", "del", "swap"]), st.integers(0, len(lines) - 1)).map(
-            lambda a: _lines(lines, *a))
-    if strategy == "payload":
-        return st.tuples(st.sampled_from(seed.runs), st.sampled_from(["flip", "truncate", "word4", "word8"]),
-                         st.integers(0, 2**16), st.integers(0, 2**64 - 1)).map(lambda a: _payload(data, *a))
-    if strategy == "base64":
-        return st.tuples(st.sampled_from(seed.runs), st.integers(0, 2**16), st.sampled_from(list(b"!*= \n%A")),
-                         st.booleans()).map(lambda a: _base64(data, *a))
-    if strategy == "zip":
-        return st.tuples(st.sampled_from(["field", "cd_flip", "member_flip", "member_cut", "no_end"]),
-                         st.integers(0, 2**16), st.integers(0, 2**16), st.integers(1, 255)).map(
-            lambda a: _zip(data, *a))
-    raise ValueError(strategy)
-
-
-def _lines(lines, op, i):
-    lines = list(lines)
-    if op == "dup":
-        lines.insert(i, lines[i])
-    elif op == "del":
-        del lines[i]
-    elif i + 1 < len(lines):
-        lines[i], lines[i + 1] = lines[i + 1], lines[i]
-    return b"".join(lines)
-
-
-def _payload(data, run, op, pos, word):
-    """Damage the bytes a base64 run holds (a zlib stream, a block header), then encode them again."""
-    raw = bytearray(base64.b64decode(data[run[0]:run[1]]))
-    pos %= max(len(raw), 1)
-    if op == "flip" and raw:
-        raw[pos] ^= 1 + word % 255
-    elif op == "truncate":
-        raw = raw[:pos]
-    elif op in ("word4", "word8"):
-        w = 4 if op == "word4" else 8
-        pos -= pos % w
-        raw[pos:pos + w] = (WORDS[word % len(WORDS)] % 2 ** (8 * w)).to_bytes(w, "little")
-    return data[:run[0]] + base64.b64encode(bytes(raw)) + data[run[1]:]
-
-
-def _base64(data, run, pos, char, replace):
-    """A run of base64 with one character replaced or inserted."""
-    k = run[0] + pos % (run[1] - run[0])
-    return data[:k] + bytes([char]) + data[k + (1 if replace else 0):]
-
-
-def _zip(data, op, a, b, xor):
-    """A ZIP archive with a header field, the central directory or a member's data damaged."""
-    heads = sorted((m.start(), sig) for sig in ZIP_FIELDS for m in re.finditer(re.escape(sig), data))
-    cd = min((p for p, s in heads if s != b"PK\x03\x04"), default=len(data))
-    if op == "field":
-        pos, sig = heads[a % len(heads)]
-        off, w = ZIP_FIELDS[sig][b % len(ZIP_FIELDS[sig])]
-        value = ZIP_VALUES[xor % len(ZIP_VALUES)] % 2 ** (8 * w)
-        return data[:pos + off] + value.to_bytes(w, "little") + data[pos + off + w:]
-    if op == "cd_flip":
-        k = cd + a % max(len(data) - cd, 1)
-        return data[:k] + bytes([data[k] ^ xor]) + data[k + 1:] if k < len(data) else data
-    if op == "no_end":
-        return data[:data.rfind(b"PK\x05\x06")]
-    # inside a member's data, past its 30-byte local header and name
-    local = [p for p, s in heads if s == b"PK\x03\x04"]
-    start = local[a % len(local)]
-    body = start + 30 + struct.unpack("<H", data[start + 26:start + 28])[0]
-    end = min([p for p, _ in heads if p > start] + [len(data)])
-    if end <= body:
-        return data
-    k = body + b % (end - body)
-    if op == "member_flip":
-        return data[:k] + bytes([data[k] ^ xor]) + data[k + 1:]
-    return data[:k] + data[min(k + xor, end):]  # member_cut: bytes removed, the directory not told
-
 
 # ---------------------------------------------------------------------------
 # outcomes
@@ -478,47 +316,15 @@ READERS = {
 }
 
 
-class _LogRecords(logging.Handler):
-    """Every log record of WARNING and above while it is attached to the root logger (nibabel logs its notes)."""
-
-    def __init__(self):
-        super().__init__(logging.WARNING)
-        self.records = []
-
-    def emit(self, record):
-        self.records.append(record)
-
-    def __enter__(self):
-        logging.getLogger().addHandler(self)
-        return self.records
-
-    def __exit__(self, *exc):
-        logging.getLogger().removeHandler(self)
-
-
 def outcome(reader, path):
     """Read ``path``: (class, detail); class is 'ok', the manifill error's name, or 'FAIL'."""
-    with _LogRecords() as logged, _peak() as peak:
+    with LogRecords() as logged, peak_memory() as peak:
         cls, detail = _outcome(reader, path)
     if cls != "FAIL" and logged:
         return "FAIL", f"logged {logged[0].name}: {logged[0].getMessage()[:200]}"
     if cls != "FAIL" and peak[0] > MOST_MEMORY:
         return "FAIL", f"allocated {peak[0] / 2**20:.0f} MiB at once for a file of {path.stat().st_size:,} bytes"
     return cls, detail
-
-
-@contextmanager
-def _peak():
-    """The most memory Python and numpy allocated at once in the block (tracemalloc, traced only there)."""
-    import tracemalloc
-
-    box = [0]
-    tracemalloc.start()
-    try:
-        yield box
-    finally:
-        box[0] = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
 
 
 def _outcome(reader, path):
@@ -704,8 +510,6 @@ def cli_case(draw, command):
 
 def run_cli(tmp_path, capfd, argv, picked, which, damaged):
     """Run the command on the inputs (one damaged) in a new folder: (class, detail)."""
-    from manifill.cli import main
-
     folder = tmp_path / f"c{next(_serial)}"
     folder.mkdir()
     names = []
@@ -716,48 +520,11 @@ def run_cli(tmp_path, capfd, argv, picked, which, damaged):
     args = [str(folder / names[a]) if isinstance(a, int) else (str(folder / a) if a.startswith("out.") else a)
             for a in argv]
     out_name = next((a for a in argv if isinstance(a, str) and a.startswith("out.")), None)
-    capfd.readouterr()
-    with warnings.catch_warnings(record=True) as caught, _LogRecords() as logged, _peak() as peak:
-        warnings.simplefilter("always")
-        t0 = time.perf_counter()
-        try:
-            code = main(args)
-        except BaseException as exc:  # noqa: BLE001 - main must not raise at all
-            code, detail = None, f"main raised {type(exc).__name__}: {exc}"
-        seconds = time.perf_counter() - t0
-    out, err = capfd.readouterr()
-    left = sorted(p.name for p in folder.iterdir())
-    cls, detail = f"exit {code}", ""
-    lines = err.splitlines()
-    if code is None:
-        cls = "FAIL"
-    elif "Traceback" in out + err:
-        cls, detail = "FAIL", f"a traceback: {err[-300:]!r}"
-    elif code not in (0, 2) and not (code == 1 and argv[0] == "check" and "FAILS" in out):
-        cls, detail = "FAIL", f"exit {code}: {err[:300]!r}"
-    elif code == 2 and (len(lines) != 1 or not lines[0].startswith("manifill: error: ")):
-        cls, detail = "FAIL", f"stderr is not one error line: {err[:300]!r}"
-    elif code == 2 and "memory" in err.lower() and "damaged" not in err.lower():
-        cls, detail = "FAIL", f"speaks of memory for a small file: {err.strip()}"
-    elif code != 2 and err:
-        cls, detail = "FAIL", f"exit {code} but stderr {err[:300]!r}"
-    elif caught:
-        cls, detail = "FAIL", f"warning escaped: {caught[0].category.__name__}: {caught[0].message}"
-    elif logged:
-        cls, detail = "FAIL", f"logged {logged[0].name}: {logged[0].getMessage()[:200]}"
-    elif seconds > SLOW:
-        cls, detail = "FAIL", f"took {seconds:.1f} s"
-    elif peak[0] > MOST_MEMORY:
-        cls, detail = "FAIL", f"allocated {peak[0] / 2**20:.0f} MiB at once for inputs of a few kB"
-    elif left != sorted(names + ([out_name] if code == 0 and out_name else [])):
-        cls, detail = "FAIL", f"left files {left} after exit {code}"
-    elif code == 0 and out_name:
-        try:  # the output is complete: it reads back
-            (read_vti if out_name.endswith(".vti") else lambda p: read_mesh_file(p, points=True))(folder / out_name)
-        except ManifillError as exc:
-            cls, detail = "FAIL", f"the output does not read back: {exc}"
+    reader = read_vti if out_name and out_name.endswith(".vti") else (lambda p: read_mesh_file(p, points=True))
+    result = run_command(capfd, folder, args, names, [out_name] if out_name else [], reader,
+                         check=argv[0] == "check", most_memory=MOST_MEMORY)
     shutil.rmtree(folder)
-    return cls, detail
+    return result
 
 
 @pytest.mark.parametrize("command", ["info", "harmonic", "check", "volume", "cloud"])
@@ -935,7 +702,7 @@ def test_regression_nibabel_log_not_printed(tmp_path, capfd):
     # nibabel logs 'Unknown MGH format version' through a stream handler of its own (on the real stderr)
     path = tmp_path / "d.mgh"
     path.write_bytes(b"\x01" + seeds()["mgh"].data[1:])
-    with _LogRecords() as logged:
+    with LogRecords() as logged:
         _read_error(path, read_samples, V_SPHERE)
     assert not logged and capfd.readouterr() == ("", "")
 
@@ -1012,7 +779,7 @@ def test_regression_lying_npy_header(tmp_path):
     for name, damaged in (("v2.npy", v2), ("version.npy", data[:6] + data[7:]),
                           ("short.npy", data[:8] + (0xFFFF).to_bytes(2, "little") + data[10:])):
         (tmp_path / name).write_bytes(damaged)
-        with _peak() as peak:
+        with peak_memory() as peak:
             msg = _read_error(tmp_path / name, read_samples, V_SPHERE)
         assert peak[0] < MOST_MEMORY and ("header claims" in msg or "version" in msg), msg
     import zipfile
@@ -1040,6 +807,6 @@ def test_regression_lying_gmsh_counts(tmp_path):
                                  ("data.msh", text + data, "real tags of $NodeData"),
                                  ("tags.msh", bytes(binary), "elements in a block")):
         (tmp_path / name).write_bytes(damaged)
-        with _peak() as peak:
+        with peak_memory() as peak:
             msg = _ends(_read_error, tmp_path / name, read_tets)
         assert words in msg and peak[0] < MOST_MEMORY, (msg, peak[0])

@@ -120,16 +120,41 @@ def test_globe_an_empty_cell_is_a_station_without_a_value_and_a_text_column_is_l
 
 @pytest.mark.parametrize("method", ["gvf", "gvf-harmonic", "hessian", "default", "biharmonic"])
 def test_globe_takes_its_stations_at_any_method_and_says_what_it_averaged(stations, tmp_path, capsys, method):
-    # was: "5 vertices get two different values ... (CLI: --duplicates mean)", an option globe did not have
+    # was: "5 vertices get two different values ... (CLI: --duplicates mean)", an option globe did not have.
+    # Now the sphere is refined until no two stations share a vertex (up to edges of about a degree): 60 stations
+    # on a 10-degree grid need no averaging; two more within 0.01 degrees of station 0 are averaged, and said
     code, out, err = run(capsys, "globe", stations / "st.csv", "-o", tmp_path / "o.nc", "--grid", "10",
                          "--method", method)
+    assert code == 0 and "averaged" not in out, err
+    import pandas as pd
+
+    df = pd.read_csv(stations / "st.csv")
+    near = df.iloc[[0, 0]].assign(lon=df.lon[0] + np.array([0.01, -0.01]), t1=[5.0, -5.0])
+    pd.concat([df, near]).to_csv(tmp_path / "near.csv", index=False)
+    code, out, err = run(capsys, "globe", tmp_path / "near.csv", "-o", tmp_path / "o.nc", "--grid", "10",
+                         "--method", method)
     assert code == 0, err
-    snaps = method in ("gvf", "gvf-harmonic")
-    assert ("averaged there" in out) == snaps
-    if snaps:  # refusing instead is one line, and its hint is an option globe takes
-        line = refused(capsys, tmp_path, "globe", stations / "st.csv", "-o", tmp_path / "p.nc", "--grid", "10",
+    assert "2 stations shared the nearest vertex of the sphere with another and were averaged there" in out
+    if method in ("gvf", "gvf-harmonic"):  # vertex samples: refusing instead is one line, its hint an option of globe
+        line = refused(capsys, tmp_path, "globe", tmp_path / "near.csv", "-o", tmp_path / "p.nc", "--grid", "10",
                        "--method", method, "--duplicates", "error")
         assert "--duplicates mean" in line
+
+
+def test_globe_refines_its_sphere_until_the_stations_are_apart(stations):
+    # stations in one triangle of a coarse sphere made the field between them as steep as their difference over
+    # their distance: the harmonic fill on a 30-degree globe ranged 24 spans beyond its stations'
+    import pandas as pd
+
+    from manifill.adapters.globe import reconstruct_globe
+
+    df = pd.read_csv(stations / "st.csv")
+    df["lon"] = df["lat"]  # stations on one curve, crowded near the poles
+    for method in ("harmonic", None):
+        out = reconstruct_globe(df[["lon", "lat", "t1"]], grid=30.0, method=method)
+        lo, hi = df.t1.min(), df.t1.max()
+        assert np.nanmin(out.values) >= lo - 0.5 * (hi - lo) and np.nanmax(out.values) <= hi + 0.5 * (hi - lo)
+        assert "vertices" in out.attrs["history"] and "162 vertices" not in out.attrs["history"]
 
 
 def test_globe_a_grid_that_will_not_fit_is_refused_before_the_work(stations, tmp_path, capsys, monkeypatch):

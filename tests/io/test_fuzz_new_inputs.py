@@ -330,7 +330,7 @@ def test_clouds_at_extreme_scales_and_in_clusters(tmp_path, capfd, case):
     rng = np.random.default_rng(int(abs(e) * 1000) % 2**32)
     P = np.vstack([V, V[0] + radius * rng.normal(size=(n, 3))])
     with np.errstate(over="ignore", under="ignore"):
-        P = P * 10.0 ** e
+        P = P * np.power(10.0, e)
     folder = tmp_path / f"f{next(_serial)}"
     folder.mkdir()
     np.savetxt(folder / "c.xyz", P)

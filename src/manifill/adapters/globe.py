@@ -21,7 +21,6 @@ from ..io.files import atomic_path
 from ..mesh.shapes import icosphere
 from ..memory import check_fits
 from ..surface.locate import locate_points
-from ..surface.methods.registry import method_of
 from ..surface.reconstructor import Reconstructor
 
 
@@ -65,16 +64,33 @@ def _level(resolution):
     return max(0, math.ceil(math.log2(EDGE_DEGREES / resolution)))
 
 
-def _check_globe_fits(grid, steps, std):
+def _check_globe_fits(grid, level, steps, std):
     """Refuse, before the sphere is built, a grid whose sphere and fields will not fit in memory."""
     spacing = 1.0 if grid is None else grid
-    if not 0.05 <= spacing <= 60:
-        return  # globe_mesh refuses it with its range
-    n = 10 * 4 ** _level(spacing) + 2
+    n = 10 * 4 ** level + 2
     cells = 0 if grid is None else int(round(180.0 / grid) + 1) * int(round(360.0 / grid))
     need = n * GLOBE_BYTES_PER_VERTEX + (n + cells) * GLOBE_BYTES_PER_VALUE * steps * (2 if std else 1)
     check_fits(need, f"the globe at {spacing:g} degrees (a sphere of {n:,} vertices and a grid of {cells:,} cells, "
                f"{steps} step(s))", "pass a coarser grid (CLI: --grid)")
+
+
+#: The finest sphere the stations may ask for beyond the grid's (level 6: edges of about 1 degree, 40,962 vertices).
+STATION_LEVEL = 6
+
+
+def _globe_level(grid, lons, lats):
+    """The sphere's level: as fine as the grid asks, and finer (up to :data:`STATION_LEVEL`) until no two stations
+    share a nearest vertex -- two stations in one triangle of a coarse sphere make the field between them as steep
+    as their difference over their distance, far beyond their values. Stations nearer than that are averaged."""
+    spacing = 1.0 if grid is None else grid
+    if not 0.05 <= spacing <= 60:
+        globe_mesh(spacing)  # refuses it with its range
+    level = _level(spacing)
+    P = lonlat_to_xyz(lons, lats)
+    distinct = np.unique(np.round(P, 12), axis=0).shape[0]
+    while level < STATION_LEVEL and np.unique(cKDTree(icosphere(level)[0]).query(P)[1]).size < distinct:
+        level += 1
+    return level
 
 
 def globe_mesh(resolution=1.0):
@@ -93,6 +109,8 @@ def globe_mesh(resolution=1.0):
 
 def _stations(data, var, lon, lat, station, time):
     """``(lon (k,), lat (k,), values (k, T), times or None, name, attrs)`` of a DataFrame or a Dataset."""
+    if lon == lat:
+        raise OptionError(f"lon and lat are both {lon!r}; name the longitude and the latitude apart (CLI: --lon, --lat)")
     if hasattr(data, "data_vars"):  # an xarray Dataset
         return _dataset_stations(data, var, lon, lat, station, time)
     if not hasattr(data, "columns"):
@@ -101,6 +119,9 @@ def _stations(data, var, lon, lat, station, time):
         if c not in data.columns:
             raise OptionError(f"the stations have no column {c!r} (they have {_listed(data.columns)}); name their "
                               f"longitude and latitude columns (lon=, lat=; CLI: --lon, --lat), in degrees")
+    if var in (lon, lat):
+        raise OptionError(f"var={var!r} is the stations' {'longitude' if var == lon else 'latitude'}; pass a value "
+                          f"column (CLI: --var)")
     if var is not None and var not in data.columns:
         raise OptionError(f"the stations have no column {var!r} (they have {_listed(data.columns)}); pass var= one "
                           f"of them (CLI: --var)")
@@ -146,6 +167,9 @@ def _dataset_stations(data, var, lon, lat, station, time):
         if c not in data.variables:
             raise OptionError(f"the stations have no variable {c!r} (they have {_listed(data.variables)}); name "
                               f"their longitude and latitude variables (lon=, lat=; CLI: --lon, --lat), in degrees")
+    if var in (lon, lat):
+        raise OptionError(f"var={var!r} is the stations' {'longitude' if var == lon else 'latitude'}; pass a value "
+                          f"variable (CLI: --var)")
     if var is not None and var not in data.data_vars:
         raise OptionError(f"the stations have no variable {var!r} (they have {_listed(data.data_vars)}); pass var= "
                           f"one of them (CLI: --var)")
@@ -178,7 +202,7 @@ _KINDS = {"U": "text", "S": "text", "O": "text", "M": "date", "m": "time-interva
 
 
 def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station", time="time", grid=1.0, mesh=None,
-                      method="biharmonic", std=False, **options):
+                      method=None, std=False, **options):
     """Stations by longitude and latitude -> a field on the sphere, as an xarray ``DataArray`` (see the module).
 
     Parameters
@@ -192,9 +216,11 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
         The output grid's spacing in degrees (``lat`` -90..90, ``lon`` -180..180 exclusive); None: the mesh's
         vertices (a ``vertex`` dimension with ``lon``/``lat`` coordinates).
     mesh : (V, F), optional
-        Your sphere (unit radius, centred); by default :func:`globe_mesh` at ``grid`` (or 1 degree).
-    method : str
-        Any method of :func:`manifill.reconstruct`.
+        Your sphere (unit radius, centred); by default :func:`globe_mesh` at ``grid`` (or 1 degree), refined (to
+        edges of about 1 degree at most) until no two stations share a nearest vertex.
+    method : str, optional
+        Any method of :func:`manifill.reconstruct`; by default manifill's default (the biharmonic fill kept within
+        the stations' range).
     std : bool
         Also the std (``method='gp'``, or ``uncertainty=True``): a ``Dataset`` of the field and ``<var>_std``.
     **options
@@ -214,14 +240,15 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
                                  and abs(180.0 / grid - round(180.0 / grid)) < 1e-9):
         raise OptionError(f"grid={grid!r} degrees does not divide 180; pass a spacing that does (1, 0.5, 0.25, 2.5, ...)")
     if mesh is None:
-        _check_globe_fits(grid, values.shape[1], std)
-    V, F = globe_mesh(grid if grid is not None else 1.0) if mesh is None else mesh
+        level = _globe_level(grid, lons, lats)
+        _check_globe_fits(grid, level, values.shape[1], std)
+    V, F = icosphere(level) if mesh is None else mesh
     V = np.asarray(V, dtype=np.float64)
     R = float(np.median(np.linalg.norm(V, axis=1)))
     P = lonlat_to_xyz(lons, lats) * R
     options.setdefault("solver", "direct")  # one factorisation for every time step (AMG would iterate per step)
     options.setdefault("duplicates", "mean")  # stations crowding one vertex of a coarse globe: averaged, and said
-    X, S, notes = _fields(V, F, P, values, method, std, options)
+    X, S, notes = _fields(V, F, P, values, method, std, options, snap=mesh is None)
     fields = attrs.pop("fields", None)
     dims_t = [times.name] if times is not None else ([] if X.shape[1] == 1 else ["field"])
     coords_t = {times.name: times} if times is not None else ({} if X.shape[1] == 1 else {"field": fields or list(
@@ -253,7 +280,7 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
                                                                        else c for k, c in coords.items()})
     ds[name].attrs.update(attrs)
     ds[name].attrs.setdefault("long_name", name)
-    made = f"manifill {method} from {len(lons)} stations"
+    made = f"manifill {method or 'default'} from {len(lons)} stations"
     ds.attrs.update({"Conventions": "CF-1.8", "source": f"{attrs['source']}; {made}" if "source" in attrs else made,
                      "history": f"reconstructed on a sphere of {len(V):,} vertices"})
     if notes:
@@ -276,7 +303,7 @@ def write_netcdf(field, path):
     return path
 
 
-def _fields(V, F, P, values, method, std, options):
+def _fields(V, F, P, values, method, std, options, snap=True):
     """``(X, S, notes)``: the fields on the vertices, ``(n, T)``, and what the summary should say (steps left
     empty, stations averaged). One Reconstructor per set of stations reporting (a station's missing values, NaN,
     leave it out of those steps; the steps with the same stations share a factorisation)."""
@@ -294,7 +321,7 @@ def _fields(V, F, P, values, method, std, options):
             empty.extend(cols.tolist())  # too few stations reporting: left NaN, and said
             continue
         options = {**options, "uncertainty": True if std else options.get("uncertainty")}
-        r, shared = _reconstruct(V, F, P[rows], values[np.ix_(rows, cols)], method, options)
+        r, shared = _reconstruct(V, F, P[rows], values[np.ix_(rows, cols)], method, options, snap)
         merged = max(merged, shared)
         X[:, cols] = np.asarray(r.values).reshape(len(V), -1)
         if std:
@@ -310,23 +337,30 @@ def _fields(V, F, P, values, method, std, options):
     return X, S, notes
 
 
-def _reconstruct(V, F, P, vals, method, options):
-    """``(result, stations averaged)``: the stations at their positions; where they crowd (more in a triangle than
-    its corners can hold apart), or for a method that takes vertex samples alone, at their nearest vertices,
-    several on one vertex averaged (with ``duplicates='mean'``)."""
+def _reconstruct(V, F, P, vals, method, options, snap=True):
+    """``(result, stations averaged)``: the stations at their positions, but on the globe's own sphere (``snap``)
+    those that share a nearest vertex (stations nearer than the finest sphere holds apart) at that vertex, averaged
+    there (``duplicates='mean'``): two stations inside one triangle would make the field between them as steep as
+    their difference over their distance. Where the positions still crowd a triangle (rows not independent),
+    every station goes to its nearest vertex. On the caller's mesh the positions are kept as given."""
     nearest = cKDTree(V).query(P)[1]
-    shared = len(nearest) - np.unique(nearest).size
+    _, inv, counts = np.unique(nearest, return_inverse=True, return_counts=True)
+    crowded = counts[np.ravel(inv)] > 1
+    shared = int(crowded.sum() - np.unique(nearest[crowded]).size) if snap else 0
+    if crowded.any() and snap:
+        P = P.copy()
+        P[crowded] = V[nearest[crowded]]
     try:
-        r = Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options)
-        return r.apply(vals), (0 if method_of(r.method).at_points else shared)
+        return Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options).apply(vals), shared
     except SampleError as exc:
         if "not independent" not in str(exc):
             raise
+    shared = int(crowded.sum() - np.unique(nearest[crowded]).size)
     return Reconstructor(V, F, nearest, method=method, fields=vals.shape[1],
                          **{"duplicates": "mean", **options}).apply(vals), shared
 
 
-def globe_file(stations, out, *, var=None, grid=1.0, method="biharmonic", lon="lon", lat="lat", **options):
+def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat="lat", **options):
     """``manifill globe``: a CSV of stations (``lon``, ``lat``, value columns) or a netCDF of them (a ``station``
     dimension) to a netCDF on a regular grid; returns a one-line summary.
 

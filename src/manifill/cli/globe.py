@@ -22,7 +22,8 @@ def add_parser(sub):
                    help="stations that fall on one vertex of the sphere (a coarse grid, a method that takes vertex "
                         "samples): average them (default) or refuse")
     s.add_argument("--grid", type=float, default=1.0, help="the grid's spacing in degrees (default: 1)")
-    s.add_argument("--method", default="biharmonic", help="any reconstruct method (default: biharmonic)")
+    s.add_argument("--method", default=None, help="any reconstruct method (default: manifill's default, the "
+                                                  "biharmonic fill kept within the stations' range)")
     s.add_argument("--smoothing", default=None, help="a number or 'auto' (noisy stations)")
     s.add_argument("-o", "--output", required=True, metavar="OUT.nc", help="the netCDF to write")
     output_args(s)

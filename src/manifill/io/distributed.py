@@ -21,6 +21,7 @@ import threading
 import time
 
 from ..errors import OptionError
+from ..memory import human
 
 #: The warning filter handed to multiprocessing's resource tracker (see :func:`local_cluster`).
 QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
@@ -86,6 +87,12 @@ def memory_bytes(limit):
         value = limit
     if not (value >= 1 and value < 2**63):
         raise OptionError(f"memory_limit={limit!r} is not a size above zero; {fix}")
+    from distributed.system import MEMORY_LIMIT  # what Dask allows a worker: the machine's, or its cgroup's
+
+    if value > MEMORY_LIMIT:
+        raise OptionError(f"memory_limit={limit!r} is more than this machine's {human(MEMORY_LIMIT)} of memory; pass "
+                          f"at most that per worker (CLI: --memory-limit), or leave it out (the machine's shared "
+                          f"among the workers)")
     return int(value)
 
 

@@ -226,7 +226,7 @@ def run_command(capfd, folder, args, inputs, outputs, read_back, *, check=False,
     batch some of whose jobs did not finish), ``'exit 2'`` or
     ``'FAIL'``. After exit 0 the files ``outputs`` must exist and read back with ``read_back(path)`` (raising a
     manifill error otherwise); after any exit no other file may be left in ``folder`` (``extra_files``: names a
-    command may write besides, such as a batch's summary).
+    command may write besides, such as a batch's summary, or a function of the folder giving them).
     """
     from manifill.cli import main
 
@@ -243,7 +243,8 @@ def run_command(capfd, folder, args, inputs, outputs, read_back, *, check=False,
     left = sorted(p.name for p in folder.iterdir())
     cls, detail = f"exit {code}", ""
     lines = err.splitlines()
-    allowed = sorted(set(inputs) | ({*outputs} if code == 0 else set()) | {n for n in extra_files if n in left})
+    extra = extra_files(folder) if callable(extra_files) else extra_files
+    allowed = sorted(set(inputs) | ({*outputs} if code == 0 else set()) | {n for n in extra if n in left})
     if code is None:
         cls = "FAIL"
     elif "Traceback" in out + err:

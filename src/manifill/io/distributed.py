@@ -125,9 +125,11 @@ def local_cluster(workers, memory_limit="auto", what="this"):
     # holds its own heap never does: the batch would wait for ever. Without the pause a worker over its limit is
     # restarted by its nanny instead, and manifill's own estimates refuse what will not fit before it runs
     with dask.config.set({"distributed.nanny.pre-spawn-environ": env, "distributed.worker.memory.pause": False}):
+        # the workers' logs stay quiet but for the critical: a worker closing with its cluster logged a connection's
+        # traceback on the user's terminal (a job's own failure is its summary row)
         return distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                         memory_limit=memory_limit, dashboard_address=":0",
-                                        silence_logs=logging.ERROR)
+                                        silence_logs=logging.CRITICAL)
 
 
 @contextlib.contextmanager

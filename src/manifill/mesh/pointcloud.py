@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 from ..errors import MeshError
 from ..tolerances import TOL
 from ..validate.options import first_entries
-from ..validate.scale import check_size, unit_scale
+from ..validate.scale import bbox_diagonal, check_size, unit_scale
 from .graph import edge_graph, graph_laplacian, quantised_lengths
 
 __all__ = ["NEIGHBOURS", "RAY", "Cloud", "cloud_neighbours"]
@@ -111,7 +111,7 @@ class Cloud:
             raise MeshError(f"the point cloud has {same.size} points at the same position as another (point "
                             f"{first_entries(same)}); merge duplicate points before reconstructing")
         self.spacing = float(np.median(dist[:, 0])) * self.scale
-        _refuse_clusters(dist[:, 0] * self.scale, self.nbr[:, 0], self.spacing)
+        _refuse_clusters(dist[:, 0] * self.scale, self.nbr[:, 0], self.spacing, P)
         frame = _frames(Pu, self.nbr)  # the fans need a tangent plane, not its orientation
         fan_a, fan_b = _umbrellas(Pu, self.nbr, frame)
         L, M = _cotan(Pu, self.nbr, fan_a, fan_b, self.n)
@@ -203,16 +203,20 @@ class Cloud:
                 "spacing": self.spacing}
 
 
-def _refuse_clusters(nearest, which, spacing):
-    """Refuse points much nearer to another than the cloud's median spacing (``TOL.cloud_cluster``), before any
-    operator is built on them: their fans are needles whose weights make the fills singular or wrong."""
+def _refuse_clusters(nearest, which, spacing, P):
+    """Refuse points much nearer to another than the cloud's spacing (``TOL.cloud_cluster`` of it), before any
+    operator is built on them: their fans are needles whose weights make the fills singular or wrong. The spacing
+    is the median nearest distance, or a tenth of the size over the square root of the count where that is larger
+    (a cluster holding most of the points makes the median its own)."""
+    spacing = max(spacing, 0.1 * bbox_diagonal(P) / np.sqrt(len(P)))
     limit = TOL.cloud_cluster * spacing
     near = np.flatnonzero(nearest < limit)
     if near.size:
         i = int(near[0])
-        raise MeshError(f"the point cloud has {near.size} points nearer than {limit:.3g} to another ({TOL.cloud_cluster:g} "
-                        f"of its median spacing {spacing:.3g}; point {i} is {nearest[i]:.3g} from point "
-                        f"{int(which[i])}): merge or drop such clusters (keep one point of each) before reconstructing")
+        raise MeshError(f"the point cloud has {near.size} points nearer than {limit:.3g} to another "
+                        f"({TOL.cloud_cluster:g} of its spacing {spacing:.3g}; point {i} is {nearest[i]:.3g} from "
+                        f"point {int(which[i])}): merge or drop such clusters (keep one point of each) before "
+                        f"reconstructing")
 
 
 def _frames(Pu, nbr):

@@ -122,7 +122,8 @@ def test_globe_an_empty_cell_is_a_station_without_a_value_and_a_text_column_is_l
 def test_globe_takes_its_stations_at_any_method_and_says_what_it_averaged(stations, tmp_path, capsys, method):
     # was: "5 vertices get two different values ... (CLI: --duplicates mean)", an option globe did not have.
     # Now the sphere is refined until no two stations share a vertex (up to edges of about a degree): 60 stations
-    # on a 10-degree grid need no averaging; two more within 0.01 degrees of station 0 are averaged, and said
+    # on a 10-degree grid need no averaging; two more within 0.01 degrees of station 0 (values +5 and -5) are
+    # merged with it into one station at their mean position and value, and said
     code, out, err = run(capsys, "globe", stations / "st.csv", "-o", tmp_path / "o.nc", "--grid", "10",
                          "--method", method)
     assert code == 0 and "averaged" not in out, err
@@ -134,11 +135,7 @@ def test_globe_takes_its_stations_at_any_method_and_says_what_it_averaged(statio
     code, out, err = run(capsys, "globe", tmp_path / "near.csv", "-o", tmp_path / "o.nc", "--grid", "10",
                          "--method", method)
     assert code == 0, err
-    assert "2 stations shared the nearest vertex of the sphere with another and were averaged there" in out
-    if method in ("gvf", "gvf-harmonic"):  # vertex samples: refusing instead is one line, its hint an option of globe
-        line = refused(capsys, tmp_path, "globe", tmp_path / "near.csv", "-o", tmp_path / "p.nc", "--grid", "10",
-                       "--method", method, "--duplicates", "error")
-        assert "--duplicates mean" in line
+    assert "2 stations shared the nearest vertex of the sphere with another and were averaged with it" in out
 
 
 def test_globe_refines_its_sphere_until_the_stations_are_apart(stations):

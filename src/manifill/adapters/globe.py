@@ -333,29 +333,35 @@ def _fields(V, F, P, values, method, std, options, snap=True):
                      f"(NaN)")
     if merged:
         notes.append(f"{merged} stations shared the nearest vertex of the sphere with another and were averaged "
-                     f"there; a finer grid keeps them apart")
+                     f"with it (one station at their mean position); a finer grid keeps them apart")
     return X, S, notes
 
 
 def _reconstruct(V, F, P, vals, method, options, snap=True):
     """``(result, stations averaged)``: the stations at their positions, but on the globe's own sphere (``snap``)
-    those that share a nearest vertex (stations nearer than the finest sphere holds apart) at that vertex, averaged
-    there (``duplicates='mean'``): two stations inside one triangle would make the field between them as steep as
-    their difference over their distance. Where the positions still crowd a triangle (rows not independent),
-    every station goes to its nearest vertex. On the caller's mesh the positions are kept as given."""
+    those that share a nearest vertex (stations nearer than the finest sphere holds apart) merged into one station
+    at their mean position (on the sphere) with their mean values: two stations inside one triangle would make the
+    field between them as steep as their difference over their distance. Where the positions still crowd a
+    triangle (rows not independent), every station goes to its nearest vertex. On the caller's mesh the positions
+    are kept as given."""
     nearest = cKDTree(V).query(P)[1]
-    _, inv, counts = np.unique(nearest, return_inverse=True, return_counts=True)
-    crowded = counts[np.ravel(inv)] > 1
-    shared = int(crowded.sum() - np.unique(nearest[crowded]).size) if snap else 0
-    if crowded.any() and snap:
-        P = P.copy()
-        P[crowded] = V[nearest[crowded]]
+    groups, inv = np.unique(nearest, return_inverse=True)
+    inv = np.ravel(inv)
+    shared = int(len(P) - groups.size)
+    if snap and shared:
+        merged = np.zeros((groups.size, 3))
+        np.add.at(merged, inv, P)
+        merged *= (np.linalg.norm(P, axis=1).mean() / np.linalg.norm(merged, axis=1))[:, None]
+        means = np.zeros((groups.size, vals.shape[1]))
+        np.add.at(means, inv, vals)
+        P, vals = merged, means / np.bincount(inv)[:, None]
     try:
-        return Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options).apply(vals), shared
+        return Reconstructor(V, F, P, method=method, fields=vals.shape[1], **options).apply(vals), \
+            (shared if snap else 0)
     except SampleError as exc:
         if "not independent" not in str(exc):
             raise
-    shared = int(crowded.sum() - np.unique(nearest[crowded]).size)
+    nearest = cKDTree(V).query(P)[1]
     return Reconstructor(V, F, nearest, method=method, fields=vals.shape[1],
                          **{"duplicates": "mean", **options}).apply(vals), shared
 

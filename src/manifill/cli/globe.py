@@ -18,9 +18,6 @@ def add_parser(sub):
     s.add_argument("--var", default=None, help="the variable (netCDF) or value column (CSV); default: all")
     s.add_argument("--lon", default="lon", help="the longitude column or variable, degrees (default: lon)")
     s.add_argument("--lat", default="lat", help="the latitude column or variable, degrees (default: lat)")
-    s.add_argument("--duplicates", choices=("mean", "error"), default="mean",
-                   help="stations that fall on one vertex of the sphere (a coarse grid, a method that takes vertex "
-                        "samples): average them (default) or refuse")
     s.add_argument("--grid", type=float, default=1.0, help="the grid's spacing in degrees (default: 1)")
     s.add_argument("--method", default=None, help="any reconstruct method (default: manifill's default, the "
                                                   "biharmonic fill kept within the stations' range)")
@@ -34,5 +31,5 @@ def run(args):
     """Write the netCDF and say what it holds."""
     options = {} if args.smoothing is None else {"smoothing": smoothing_arg(args.smoothing)}
     print(globe_file(args.stations, args.output, var=args.var, grid=args.grid, method=args.method, lon=args.lon,
-                     lat=args.lat, duplicates=args.duplicates, **options))
+                     lat=args.lat, **options))
     return 0

@@ -133,7 +133,18 @@ def _stations(data, var, lon, lat, station, time):
     values = np.column_stack([columns[c] for c in cols])
     where = _numbers(data[lon], lon, strict=True), _numbers(data[lat], lat, strict=True)
     name = str(cols[0]) if len(cols) == 1 else "value"
+    _check_name(name, var)
     return (*where, values, None, name, {"fields": [str(c) for c in cols]})
+
+
+#: Names a value may not take: the output's own coordinates.
+_COORDINATES = ("lon", "lat", "vertex", "field")
+
+
+def _check_name(name, var):
+    if name in _COORDINATES:
+        raise OptionError(f"the value {name!r} would share its name with the output's {name!r} coordinate; rename "
+                          f"the column or variable" + ("" if var else ", or pass var= another (CLI: --var)"))
 
 
 def _listed(names, most=8):
@@ -194,6 +205,10 @@ def _dataset_stations(data, var, lon, lat, station, time):
     if lons.shape != (da.sizes[station],) or lats.shape != lons.shape:
         raise SampleError(f"{lon!r} and {lat!r} have shapes {lons.shape} and {lats.shape}; each needs one value "
                           f"per station ({da.sizes[station]}), along {station!r}")
+    _check_name(str(names[0]), var)
+    if times is not None and times.name in _COORDINATES:
+        raise OptionError(f"the time dimension {times.name!r} would share its name with the output's coordinate; "
+                          f"rename it")
     values = da.transpose(station, *([time] if times is not None else [])).values.astype(np.float64)
     return lons, lats, values.reshape(len(lons), -1), times, str(names[0]), dict(da.attrs)
 

@@ -154,6 +154,16 @@ def test_globe_refines_its_sphere_until_the_stations_are_apart(stations):
         assert "vertices" in out.attrs["history"] and "162 vertices" not in out.attrs["history"]
 
 
+def test_globe_a_value_named_like_an_output_coordinate_is_refused(stations, tmp_path, capsys):
+    # found by the extended fuzz: --lon t1 --var lon made a value 'lon' beside the grid's 'lon' (internal error)
+    line = refused(capsys, tmp_path, "globe", stations / "st.csv", "-o", tmp_path / "o.nc", "--grid", "20",
+                   "--lon", "t1", "--var", "lon")
+    assert "would share its name with the output's 'lon' coordinate" in line
+    line = refused(capsys, tmp_path, "globe", stations / "st.csv", "-o", tmp_path / "o.nc", "--grid", "20",
+                   "--lon", "lat")
+    assert "lon and lat are both 'lat'" in line
+
+
 def test_globe_a_grid_that_will_not_fit_is_refused_before_the_work(stations, tmp_path, capsys, monkeypatch):
     # was: ran 103 s under a 6 GB limit, then "out of memory during the computation"
     from manifill.memory import LIMIT_ENV
@@ -320,6 +330,16 @@ def test_a_near_coinciding_cluster_is_refused_by_the_clouds_operator(tmp_path, c
                   "triharmonic", "--gradient"]):
         line = refused(capsys, tmp_path, *argv)
         assert "merge or drop such clusters" in line
+
+
+def test_a_cluster_holding_most_of_the_points_is_refused_too():
+    # found by the extended fuzz: 600 points within 2e-5 of one point of a 162-point cloud made the median spacing
+    # the cluster's own, below the limit, and the triharmonic field 1e5 times its samples'
+    V2 = icosphere(2)[0]
+    P = np.vstack([V2, V2[0] + 2e-5 * np.random.default_rng(0).normal(size=(600, 3))])
+    idx = np.arange(0, len(V2), 9)
+    with pytest.raises(MeshError, match="merge or drop such clusters"):
+        reconstruct(P, None, idx, smooth(P[idx]), method="triharmonic")
 
 
 def test_a_cloud_just_clear_of_the_cluster_limit_stays_within_its_samples(tmp_path):

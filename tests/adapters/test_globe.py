@@ -109,8 +109,8 @@ def test_missing_observations_leave_a_station_out_of_those_steps():
 
 def test_times_grids_radii_and_crowded_stations():
     """The time coordinate keeps its name and attributes; grid coordinates are exact multiples and a spacing that
-    does not divide 180 is refused; a sphere of Earth's radius works; 50 stations crowded in a 20 x 10 degree box
-    (more in a triangle than its corners hold apart) fall back to their nearest vertices."""
+    does not divide 180 is refused; a sphere of Earth's radius works; on the caller's sphere 50 stations crowded in a
+    20 x 10 degree box (more in a triangle than its corners hold apart) fall back to their nearest vertices."""
     P = lonlat_to_xyz(LON, LAT)
     t = xr.DataArray(np.array([0.0, 6.0]), dims="valid_time", attrs={"units": "hours since 2020-01-01",
                                                                      "standard_name": "time"})
@@ -130,7 +130,7 @@ def test_times_grids_radii_and_crowded_stations():
     lon = np.r_[LON, rng.uniform(0, 20, 50)]
     lat = np.r_[LAT, rng.uniform(45, 55, 50)]
     crowded = pd.DataFrame({"lon": lon, "lat": lat, "v": field(lonlat_to_xyz(lon, lat))})
-    out = reconstruct_globe(crowded, grid=5.0, smoothing=1e-6)
+    out = reconstruct_globe(crowded, grid=5.0, smoothing=1e-6, mesh=globe_mesh(5.0))  # the caller's sphere: kept
     assert np.isfinite(out.values).all()
 
 

@@ -255,7 +255,8 @@ def run_command(capfd, folder, args, inputs, outputs, read_back, *, check=False,
         cls, detail = "FAIL", f"stderr is not one error line: {err[:300]!r}"
     elif code == 2 and "internal error" in err:
         cls, detail = "FAIL", f"an internal error: {err.strip()[:300]}"
-    elif code == 2 and "memory" in err.lower() and not any(w in err for w in ("damaged", "needs about", "memory_limit")):
+    elif code == 2 and "memory" in err.lower() and not any(w in err for w in ("damaged", "needs about",
+                                                                               "memory_limit")):
         cls, detail = "FAIL", f"speaks of memory for a small file: {err.strip()}"
     elif code != 2 and err and not (exit1 and code == 1 and len(lines) == 1 and lines[0].startswith("manifill: ")):
         cls, detail = "FAIL", f"exit {code} but stderr {err[:300]!r}"

@@ -206,7 +206,10 @@ def test_globe_on_damaged_tables_and_options(tmp_path, capfd, seeds, case):
     folder = _folder(tmp_path, {name: data})
     lo, hi = _station_range(folder / name)
     bounded = "--method" not in opts or opts[opts.index("--method") + 1] == "default"
-    read_back = (lambda p: _netcdf_back(p, lo, hi, 0.0 if bounded else 10.0))
+
+    def read_back(path):
+        return _netcdf_back(path, lo, hi, 0.0 if bounded else 10.0)
+
     cls, detail = run_command(capfd, folder, ["globe", folder / name, "-o", folder / "out.nc", *opts], [name],
                               ["out.nc"], read_back, slow=30.0, most_memory=1 << 40)
     shutil.rmtree(folder)

@@ -110,7 +110,8 @@ def globe_mesh(resolution=1.0):
 def _stations(data, var, lon, lat, station, time):
     """``(lon (k,), lat (k,), values (k, T), times or None, name, attrs)`` of a DataFrame or a Dataset."""
     if lon == lat:
-        raise OptionError(f"lon and lat are both {lon!r}; name the longitude and the latitude apart (CLI: --lon, --lat)")
+        raise OptionError(f"lon and lat are both {lon!r}; name the longitude and the latitude apart "
+                          f"(CLI: --lon, --lat)")
     if hasattr(data, "data_vars"):  # an xarray Dataset
         return _dataset_stations(data, var, lon, lat, station, time)
     if not hasattr(data, "columns"):

@@ -11,8 +11,8 @@ import numpy as np
 
 from ..errors import MeshError
 
-__all__ = ["UNIT_WINDOW", "scale_of", "unit_scale", "scale_and_diagonal", "bbox_diagonal", "check_size", "FLOAT_DECADES",
-           "LOW_DECADES"]
+__all__ = ["UNIT_WINDOW", "scale_of", "unit_scale", "scale_and_diagonal", "bbox_diagonal", "check_size",
+           "FLOAT_DECADES", "LOW_DECADES"]
 
 #: Positions whose largest bounding-box half-extent has a binary exponent within
 #: ``-UNIT_WINDOW .. UNIT_WINDOW`` (about 2e-10 to 4e9) are used as they are: products of
@@ -149,7 +149,7 @@ def check_size(V, power, what, quantity, fix, decades=FLOAT_DECADES):
     >>> check_size(np.array([[0.0, 0, 0], [1e200, 0, 0]]), 2, "the cloud", "areas", "rescale it")
     Traceback (most recent call last):
     ...
-    manifill.errors.MeshError: the cloud is 1e+200 units across: its areas would be about 1e+400, beyond floating point; rescale it
+    manifill.errors.MeshError: the cloud is 1e+200 units across: its areas would be about 1e+400, beyond ...
     """
     V = np.asarray(V, dtype=np.float64).reshape(len(V), -1)
     if V.size == 0:

@@ -270,7 +270,7 @@ def linear_field(X):
 
 def run(capsys, *argv):
     """``manifill ARGV`` in-process: (exit code, stdout, stderr)."""
-    from manifill.cli import main
+    from manifill.console import main
 
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()

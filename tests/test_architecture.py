@@ -25,7 +25,7 @@ MAX_PARAMETERS = 12
 #: no module imports them.
 LAYERS = ["base", "mesh", "linalg", "surface", "solid", "io", "viz", "demo", "adapters", "cli", "cluster", "top"]
 BASE = {"errors", "tolerances", "validate", "memory", "progress", "results", "report", "version"}
-TOP = {"", "__main__"}
+TOP = {"", "__main__", "console"}
 
 #: The only packages a function may import inside its body (lazily): optional extras, or slow to import
 #: and needed by few calls. Everything else (numpy, scipy, the standard library, manifill itself)

@@ -100,3 +100,16 @@ def test_the_check_catches_a_positional_option():
     assert positional_options(good) == []
     assert positional_options(bad) == ["methods"]
     assert positional_options(star) == ["*args"]
+
+
+def test_import_manifill_loads_no_command_line_no_adapter_and_no_dask():
+    """``import manifill`` in a fresh interpreter: the library alone. The command line, the batch layer, the
+    adapters and Dask load when used (``manifill.batch`` on first access; the ``manifill`` command imports them)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, manifill; print(' '.join(sorted(m for m in sys.modules if m.startswith(('manifill.cli', "
+            "'manifill.cluster', 'manifill.adapters', 'dask', 'distributed', 'xarray', 'pandas', 'mne', 'sklearn')))))"
+            "; manifill.batch; print('manifill.cluster' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out == ["", "True"], out

@@ -21,6 +21,8 @@ the subpackages are the layers (``docs/ARCHITECTURE.md`` draws them):
   :mod:`manifill.progress`, :mod:`manifill.report`, :mod:`manifill.version`
 """
 
+import importlib
+
 from .version import __version__  # noqa: F401 (the one source of the version)
 from .errors import (ManifillError, MeshError, OptionError, ReadError, ResourceError, SampleError, SolveError,
                      WriteError)
@@ -52,7 +54,6 @@ from .surface.reconstructor import Reconstructor
 from .surface.options import Options
 from .surface.methods.registry import method_of
 from .io.stream import reconstruct_series
-from .cluster import BatchResult, batch
 from .surface.surface import Surface
 
 __all__ = [
@@ -76,3 +77,21 @@ __all__ = [
     "Result", "read_mesh", "read_mesh_file", "write_mesh", "read_samples", "write_values", "read_tets",
     "write_tets", "read_vti", "write_vti",
 ]
+
+
+#: Names of the public API loaded when first used: the batch layer sits above the command line (a job is a command
+#: line), so ``import manifill`` would load the command line with it.
+_LAZY = {"batch": "cluster", "BatchResult": "cluster"}
+
+
+def __getattr__(name):
+    """``manifill.batch`` and ``manifill.BatchResult``, imported on first use (PEP 562)."""
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'manifill' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

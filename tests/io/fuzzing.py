@@ -228,7 +228,7 @@ def run_command(capfd, folder, args, inputs, outputs, read_back, *, check=False,
     manifill error otherwise); after any exit no other file may be left in ``folder`` (``extra_files``: names a
     command may write besides, such as a batch's summary, or a function of the folder giving them).
     """
-    from manifill.cli import main
+    from manifill.console import main
 
     capfd.readouterr()
     with warnings.catch_warnings(record=True) as caught, LogRecords() as logged, peak_memory() as peak:

@@ -13,7 +13,8 @@ unchanged. manifill schedules nothing itself: Dask does, and retries a job whose
 
 The layer sits above the command line and uses it (a job is a command line): the ``batch``
 subcommand is :mod:`manifill.cluster.command`, added here to the command line's subcommands
-(:func:`manifill.cli.main.add_command`); :mod:`manifill.cli` never imports this layer.
+(:func:`manifill.cli.main.add_command`); :mod:`manifill.cli` never imports this layer: the ``manifill`` command
+(:mod:`manifill.console`) imports it first, and ``manifill.batch`` loads it on first use.
 """
 
 from ..cli.main import add_command

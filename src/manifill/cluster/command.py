@@ -3,7 +3,7 @@
 The ``batch`` subcommand lives here, in the cluster layer, not in :mod:`manifill.cli`: a batch runs
 command lines, so the cluster layer uses the command line and not the other way round.
 :mod:`manifill.cluster` adds this module to the command line's subcommands
-(:func:`manifill.cli.main.add_command`) when it is imported, which ``import manifill`` does.
+(:func:`manifill.cli.main.add_command`) when it is imported, which the ``manifill`` command does first.
 """
 
 import sys

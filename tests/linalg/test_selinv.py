@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 from conftest import icosphere
 from manifill.errors import SolveError
 from manifill.linalg import selinv
-from manifill.linalg.selinv import SelectedInverse, cholesky, cholmod_available
+from manifill.linalg.cholesky import cholesky, cholmod_available
+from manifill.linalg.selinv import SelectedInverse
 from manifill.linalg.spde import MaternShape
 from manifill.mesh.laplacian import laplacian, mass_matrix
 from manifill.mesh.roots import gradient_root

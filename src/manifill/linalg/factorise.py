@@ -15,7 +15,7 @@ from scipy.sparse.linalg import splu
 
 from ..errors import OptionError
 from ..tolerances import TOL
-from .selinv import cholesky
+from .cholesky import cholesky
 
 __all__ = ["DIRECT_ENV", "PARDISO_MIN", "direct_factoriser", "PardisoFactor", "factorise"]
 
@@ -119,7 +119,7 @@ def factorise(A, factoriser=None, spd=False):
     """``(name, factor)``: the factorisation of the square sparse ``A``, with ``factor.solve(B)``.
 
     ``factoriser='cholesky'`` (``A`` symmetric positive definite) gives the sparse Cholesky factor
-    (:class:`manifill.linalg.selinv.Factor`: CHOLMOD's where the ``[cholmod]`` extra is installed, else
+    (:class:`manifill.linalg.cholesky.Factor`: CHOLMOD's where the ``[cholmod]`` extra is installed, else
     SuperLU's in symmetric mode) that a selected inversion reads: the gp's mean and exact variance share it.
 
     ``factoriser='superlu'`` always takes SuperLU (the many-fields fill does: on the pipeline's small

@@ -37,7 +37,8 @@ from ..errors import OptionError, ResourceError, SolveError
 from ..tolerances import TOL
 from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
-from .selinv import SAMPLES_LAST_MAX, Factor, SamplesLast, SelectedInverse, cholesky, cholmod_available
+from .cholesky import SAMPLES_LAST_MAX, Factor, SamplesLast, cholesky, cholmod_available
+from .selinv import SelectedInverse
 from .sparselik import LOO_MAX, loo_residuals
 
 __all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "factoriser_for", "loo_summary",
@@ -215,7 +216,7 @@ class Conditional:
         return var, info
 
     def _factor(self, free):
-        """The Cholesky :class:`~manifill.linalg.selinv.Factor` of the unknowns' precision: the solver's own
+        """The Cholesky :class:`~manifill.linalg.cholesky.Factor` of the unknowns' precision: the solver's own
         where it made one (``factoriser='cholesky'``), else a new one."""
         if self._sl is not None:
             return self._sl.free_factor()

@@ -26,15 +26,16 @@ import scipy.sparse as sp
 
 from ..errors import SolveError
 from ..memory import check_fits, lu_memory
-from .selinv import (NOT_DEFINITE, SAMPLES_LAST_MAX, SamplesLast, SelectedInverse, cholesky, cholmod_available,
-                     cholmod_module, from_cholmod, superlu_spd)
+from .cholesky import (NOT_DEFINITE, SAMPLES_LAST_MAX, SamplesLast, cholesky, cholmod_available, cholmod_module,
+                       from_cholmod, superlu_spd)
+from .selinv import SelectedInverse
 
 __all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood", "LOO_MAX", "loo_residuals"]
 
 _LOG2PI = math.log(2.0 * math.pi)
 
 #: Most samples whose leave-one-out residuals :func:`loo_residuals` computes (a dense ``m x m`` block of a factor
-#: with the samples last: :data:`manifill.linalg.selinv.SAMPLES_LAST_MAX`).
+#: with the samples last: :data:`manifill.linalg.cholesky.SAMPLES_LAST_MAX`).
 LOO_MAX = SAMPLES_LAST_MAX
 
 
@@ -73,7 +74,7 @@ class LogdetFactors:
         self.name = "cholmod" if self._cholmod is not None else "superlu"
 
     def samples_last(self, Q, idx):
-        """A :class:`manifill.linalg.selinv.SamplesLast` factor of ``Q`` (CHOLMOD), its analyses kept for the next."""
+        """A :class:`manifill.linalg.cholesky.SamplesLast` factor of ``Q`` (CHOLMOD), its analyses kept for the next."""
         if "samples last" not in self._checked:
             n = Q.shape[0]
             check_fits(lu_memory(n, Q.nnz, dim=2), f"the likelihood's sparse factor of {n:,} unknowns",
@@ -83,7 +84,7 @@ class LogdetFactors:
 
     def factor(self, key, A, selected=False):
         """``(solve, log det A)`` of the symmetric positive definite ``A``, whose pattern is named ``key``; with
-        ``selected``, the first is a :class:`manifill.linalg.selinv.Factor` (for a selected inversion).
+        ``selected``, the first is a :class:`manifill.linalg.cholesky.Factor` (for a selected inversion).
 
         The first factorisation of each pattern is refused before it starts if its estimated fill
         (:func:`manifill.memory.lu_memory`) will not fit."""
@@ -209,7 +210,7 @@ def loo_residuals(Q, idx, Y, free_order, mean="constant", Lss=None):
         A fill-reducing order of the other vertices (e.g. the variance's factor's ``p``).
     mean : 'constant' or float
     Lss : (m, m) numpy array, optional
-        The factor's last block where it is at hand (:class:`manifill.linalg.selinv.SamplesLast`).
+        The factor's last block where it is at hand (:class:`manifill.linalg.cholesky.SamplesLast`).
 
     Returns
     -------

@@ -26,24 +26,26 @@ minimiser (constants are free there): ``on_empty='error'`` raises
 :class:`~manifill.errors.SolveError` naming it, ``on_empty='nan'`` leaves it
 NaN.
 
-Extension points (the next methods plug in here, without reshaping the above):
+What the constructor takes besides ``A`` and ``idx``:
 
-- *Weighted soft constraints* ``+ 1/2 sum_j w_j (x[s_j] - y_j)^2``: add ``w`` to
-  the diagonal of ``A`` at ``s`` before the split (constructor: ``soft``,
-  ``weights``) and ``-w y`` to the linear term at solve time (``soft_vals``);
-  the reduction, components (a soft index anchors its component) and backends
-  are unchanged.
-- *Linear equality rows* ``Aeq x = beq`` (barycentric points on faces) are
-  there for the ``direct`` backend: ``Aeq`` is reduced like ``A`` (``Aeq_I``,
+- *Linear equality rows* ``Aeq x = beq`` (``Aeq=``: barycentric points on faces)
+  for the ``direct`` backend: ``Aeq`` is reduced like ``A`` (``Aeq_I``,
   ``beq - Aeq_b vals``) and the KKT system ``[[A_II, Aeq_I^T], [Aeq_I, 0]]``
-  (symmetric indefinite) is factorised. Next: a null-space basis for the
-  iterative backends.
+  (symmetric indefinite) is factorised. The iterative backends take points
+  after :func:`manifill.surface.points.eliminate_rows` has solved the rows for
+  one free vertex each (the energies' methods do this).
+- ``candidates=``: the near null space of a 4th-order energy (the positions) for
+  :class:`manifill.linalg.amg_candidates.CandidateAMG`.
 - *Bounds* ``lo <= x <= hi`` (``solve(vals, lo=..., hi=...)``): the
   active-set loop of :mod:`manifill.linalg.active_set` around
   :meth:`QuadraticSolver.solve`; it moves violated indices into ``idx`` at
   their bound (:meth:`QuadraticSolver.fixing`, the same reduction), and
   releases those whose multiplier ``(A x + c)_i`` has the wrong sign
   (primal-dual steps, then a monotone loop that always settles).
+
+Soft constraints (noisy samples, ``1/2 sum_j w_j ((S x)_j - y_j)^2`` beside
+``lam x^T A x``) are not taken here: :class:`manifill.linalg.smoothing.SmoothingFit`
+solves them, with its own Dirichlet solves through this class.
 """
 
 import time

@@ -113,3 +113,14 @@ def test_import_manifill_loads_no_command_line_no_adapter_and_no_dask():
             "; manifill.batch; print('manifill.cluster' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out == ["", "True"], out
+
+
+def test_renamed_public_names_still_answer_for_one_release_with_a_warning():
+    import manifill.surface.reconstruct as rec
+
+    with pytest.warns(DeprecationWarning, match=r"reconstruct\.METHODS is now METHOD_NAMES"):
+        old = rec.METHODS
+    assert old == rec.METHOD_NAMES == manifill.surface.methods.registry.names(presets=False)
+    assert "biharmonic" in old and "default" not in old
+    with pytest.raises(AttributeError):
+        rec.NO_SUCH_NAME

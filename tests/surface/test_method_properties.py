@@ -1,6 +1,6 @@
 """Properties every method of ``reconstruct`` states, checked across the whole method table at once.
 
-One table (:data:`CASES`) names every method of :data:`manifill.surface.reconstruct.METHODS` with the option
+One table (:data:`CASES`) names every method of :data:`manifill.surface.reconstruct.METHOD_NAMES` with the option
 sets that change what it computes (the paper's pipeline with each curve value and partition; harmonic,
 biharmonic, triharmonic alone, bounded by the samples or by a pair, smoothed with a fixed lambda or GCV;
 the gradually varied fit; ``rbf`` and ``auto`` when they exist), and each test states one property for the
@@ -31,7 +31,7 @@ from hypothesis import strategies as st
 
 import manifill
 from conftest import icosphere, irregular, relabel
-from manifill.surface.reconstruct import METHODS, reconstruct
+from manifill.surface.reconstruct import METHOD_NAMES as METHODS, reconstruct
 
 hsettings = settings(max_examples=4, deadline=None, derandomize=True, database=None,
                      suppress_health_check=[HealthCheck.too_slow])

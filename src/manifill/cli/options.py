@@ -10,10 +10,9 @@ from ..surface.methods.registry import method_of, names
 from ..linalg.backends import SOLVERS
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
-           "gradient_args", "check_workers", "CURVE_VALUES", "DISTANCES", "METHODS", "PARTITIONS", "SOLVERS", "WEIGHTS"]
+           "gradient_args", "check_workers", "CURVE_VALUES", "DISTANCES", "PARTITIONS", "SOLVERS", "WEIGHTS"]
 
 #: What --method takes: every method of the registry, then its presets (``default``).
-METHODS = names()
 
 MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
 
@@ -116,7 +115,7 @@ def energy_args(s):
 def pipeline_args(s, *, method_help="default: the measured default, gvf-harmonic with monotone curve values and "
                                      "--bounds samples (pass --method gvf-harmonic for the paper's pipeline alone)"):
     """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
-    s.add_argument("--method", choices=METHODS, default=None,
+    s.add_argument("--method", choices=names(), default=None,
                    help=f"{method_help}; " + "; ".join(f"{name}: {method_of(name).summary}" for name in names(False)))
     s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
     s.add_argument("--curve-values", choices=CURVE_VALUES, default=None,

@@ -21,6 +21,7 @@ on a built Surface. The result is a :class:`Reconstruction`, of the result famil
 """
 
 import time
+import warnings
 
 import numpy as np
 
@@ -29,13 +30,15 @@ from .engine import reconstruct_surface
 from .methods.base import CHECK_FIELDS
 from .methods.default import DEFAULT
 from .methods.registry import METHODS as REGISTRY
+from .methods.registry import names
 from .reconstruction import Reconstruction
 from .reconstructor import Reconstructor
 
-__all__ = ["METHODS", "STEPS", "DEFAULT", "CHECK_FIELDS", "Reconstruction", "reconstruct", "reconstruct_surface"]
+__all__ = ["METHOD_NAMES", "STEPS", "DEFAULT", "CHECK_FIELDS", "Reconstruction", "reconstruct", "reconstruct_surface"]
 
-#: The names of the methods (the registry's, :mod:`manifill.surface.methods.registry`).
-METHODS = tuple(REGISTRY)
+#: The names of the methods (the registry's, :mod:`manifill.surface.methods.registry`, whose ``METHODS`` maps
+#: them to their objects; ``names()`` adds the presets).
+METHOD_NAMES = names(presets=False)
 #: The steps each method runs by default, in order, under the names it passes to ``progress``
 #: (:func:`reconstruct` runs ``graph`` before them; a progress bar's total is their count).
 STEPS = {name: m.step_names for name, m in REGISTRY.items()}
@@ -197,3 +200,15 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
     r.report["seconds"] = {**prepared, **seconds}
     r.report["seconds"]["total"] = time.perf_counter() - t0
     return r
+
+
+#: Public names renamed, kept one release with a warning: old name -> new name.
+RENAMED = {"METHODS": "METHOD_NAMES"}
+
+
+def __getattr__(name):
+    if name in RENAMED:
+        warnings.warn(f"manifill.surface.reconstruct.{name} is now {RENAMED[name]}; the old name goes in the next "
+                      f"release", DeprecationWarning, stacklevel=2)
+        return globals()[RENAMED[name]]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -123,4 +123,4 @@ def test_renamed_public_names_still_answer_for_one_release_with_a_warning():
     assert old == rec.METHOD_NAMES == manifill.surface.methods.registry.names(presets=False)
     assert "biharmonic" in old and "default" not in old
     with pytest.raises(AttributeError):
-        getattr(rec, "NO_SUCH_NAME")
+        _ = rec.NO_SUCH_NAME

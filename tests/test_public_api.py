@@ -124,3 +124,11 @@ def test_renamed_public_names_still_answer_for_one_release_with_a_warning():
     assert "biharmonic" in old and "default" not in old
     with pytest.raises(AttributeError):
         _ = rec.NO_SUCH_NAME
+
+
+def test_moved_search_still_answers_at_its_old_place_for_one_release():
+    import manifill.linalg.lamsearch as old
+    from manifill.linalg.search import grid_search
+
+    with pytest.warns(DeprecationWarning, match=r"lamsearch\.grid_search is now manifill\.linalg\.search\.grid_search"):
+        assert old.grid_search is grid_search

@@ -249,7 +249,7 @@ def test_leave_one_out_residuals_are_universal_krigings_refits(mean):
 
 @pytest.mark.parametrize("centre", [-0.9, -0.3, 0.12, 0.55, 1.1])
 def test_the_costly_search_finds_the_minimum_in_few_calls(centre):
-    from manifill.linalg.gpfit import bounded_search
+    from manifill.linalg.search import bounded_search
 
     calls = []
 
@@ -271,7 +271,7 @@ def test_the_costly_search_finds_the_minimum_in_few_calls(centre):
 
 
 def test_the_costly_search_stops_at_an_end_that_holds_the_minimum():
-    from manifill.linalg.gpfit import bounded_search
+    from manifill.linalg.search import bounded_search
 
     calls = []
     down = lambda x: calls.append(x) or -x  # noqa: E731  (decreasing: the minimum at the upper end)

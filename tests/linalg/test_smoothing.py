@@ -6,7 +6,8 @@ import scipy.sparse as sp
 
 from manifill import OptionError, SampleError, SolveError
 from manifill.linalg.quadratic import QuadraticSolver
-from manifill.linalg.lamsearch import grid_search, log_grid
+from manifill.linalg.lamsearch import log_grid
+from manifill.linalg.search import grid_search
 from manifill.linalg.smoothing import SmoothingFit, smooth
 from manifill.mesh.laplacian import laplacian
 from manifill.mesh.shapes import icosphere

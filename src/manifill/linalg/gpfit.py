@@ -16,10 +16,11 @@ diag(D) U'`` (REML; a known mean drops the middle term and uses ``m``).
 import math
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from scipy.special import gamma, kv
 
-__all__ = ["Likelihood", "bounded_search", "restricted_loglik", "fit_range", "matern_correlation", "near_euclidean"]
+from .search import bounded_search
+
+__all__ = ["Likelihood", "restricted_loglik", "fit_range", "matern_correlation", "near_euclidean"]
 
 _LOG2PI = math.log(2.0 * math.pi)
 
@@ -71,56 +72,6 @@ class Likelihood:
         D = s2 * self.lam + n2
         ld, q = self.terms(D, j)
         return ld + q + self.dof() * _LOG2PI
-
-
-def bounded_search(f, lo, hi, points=7, parabolic=False):
-    """Minimise ``f`` on ``[lo, hi]`` (log scale): a grid of ``points``, then a refinement in the best bracket.
-
-    To 3% in ``kappa``: from 100 samples the range is known to about 20% anyway. The refinement is Brent's
-    bounded method, or with ``parabolic`` (for costly ``f``: the range's likelihood, a sparse factorisation per
-    call) safeguarded parabolic steps through the grid's best three points, which reuse them, and at an end of
-    the grid one probe just inside (a range at the search's bound: 4 calls in all, where the grid and Brent
-    took 9).
-    """
-    grid = np.linspace(lo, hi, points)
-    vals = [f(g) for g in grid]
-    i = int(np.argmin(vals))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    if b <= a:
-        return grid[i], vals[i]
-    if parabolic and 0 < i < len(grid) - 1:
-        return _parabolic(f, [grid[i - 1], grid[i], grid[i + 1]], [vals[i - 1], vals[i], vals[i + 1]])
-    if parabolic:  # the best at an end: one probe just inside says whether the minimum is there (4 calls, not 9)
-        t = grid[i] + (0.03 if i == 0 else -0.03)
-        if vals[i] <= f(t):
-            return grid[i], vals[i]
-    r = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 0.03})
-    return (r.x, r.fun) if r.fun <= vals[i] else (grid[i], vals[i])
-
-
-def _parabolic(f, x, y, xatol=0.03, steps=6):
-    """Successive parabolic interpolation in the bracket ``x0 < x1 < x2`` (``y1`` the least), kept bracketing."""
-    (x0, x1, x2), (y0, y1, y2) = x, y
-    for _ in range(steps):
-        d0, d2 = x1 - x0, x1 - x2
-        den = d0 * (y1 - y2) - d2 * (y1 - y0)
-        if den == 0:
-            break
-        t = x1 - 0.5 * (d0 * d0 * (y1 - y2) - d2 * d2 * (y1 - y0)) / den
-        t = min(max(t, x0 + xatol / 2), x2 - xatol / 2)  # inside the bracket, off its ends
-        if abs(t - x1) < xatol / 2:
-            break
-        yt = f(t)
-        if yt < y1:  # the new best: the bracket closes around it
-            (x0, y0, x2, y2) = (x0, y0, x1, y1) if t < x1 else (x1, y1, x2, y2)
-            x1, y1 = t, yt
-        elif t < x1:
-            x0, y0 = t, yt
-        else:
-            x2, y2 = t, yt
-        if x2 - x0 < xatol:
-            break
-    return x1, y1
 
 
 def restricted_loglik(lik, cols, *, s2=None, noise2=None, fit_noise=False):

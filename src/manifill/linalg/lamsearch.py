@@ -1,24 +1,19 @@
-"""Minimise a score over a positive parameter: a log grid, then a golden-section refinement on its log.
+"""The smoothing's ``lam``: checked, and its log grid (the search itself is :mod:`manifill.linalg.search`'s).
 
-Domain-free: :meth:`manifill.linalg.smoothing.SmoothingFit.select` uses it to
-choose the smoothing ``lam`` by GCV or leave-one-out. The score is a function
-``f(lam) -> (p,)`` (one score per field); every field gets its own minimiser,
-found among the grid and its own refinement points only, so a field's choice
-does not depend on the others.
+:meth:`manifill.linalg.smoothing.SmoothingFit.select` chooses ``lam`` by GCV or leave-one-out with
+:func:`manifill.linalg.search.grid_search` on :func:`log_grid` or a user's grid (:func:`as_grid`); every field gets
+its own minimiser, found among the grid and its own refinement points only.
 """
 
-import math
+
+import importlib
+import warnings
 
 import numpy as np
 
 from ..errors import OptionError
 
-__all__ = ["check_lam", "log_grid", "as_grid", "grid_search"]
-
-#: The golden-section refinement stops when its bracket is narrower than this many decades.
-REFINE_DECADES = 0.01
-_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
-
+__all__ = ["check_lam", "log_grid", "as_grid"]
 
 def check_lam(lam, p):
     """``lam`` as a float, or an array of ``p`` floats, each finite and >= 0 (:class:`~manifill.errors.OptionError`)."""
@@ -56,66 +51,13 @@ def as_grid(lams, what="lams"):
     return np.unique(grid)
 
 
-def grid_search(f, grid, *, refine=True):
-    """The minimiser of ``f`` per field: the best grid point, refined between its neighbours.
-
-    Parameters
-    ----------
-    f : callable
-        ``f(lam) -> (p,)`` scores (``inf`` where undefined), for ``lam > 0``.
-    grid : (m,) numpy array
-        Sorted values > 0.
-    refine : bool, optional
-        Golden-section search on ``log lam`` between the best grid point's
-        neighbours (to :data:`REFINE_DECADES`).
-
-    Returns
-    -------
-    chosen : (p,) numpy array
-    curve : dict
-        ``lambdas`` (sorted, every value evaluated), ``scores`` ``(M, p)``,
-        ``grid`` (bool: a grid point), ``at_edge`` ((p,) bool: the best grid
-        point is an end of the grid).
-
-    Examples
-    --------
-    >>> chosen, curve = grid_search(lambda t: np.array([np.log(t / 3.0) ** 2]), log_grid(1.0, (-2, 2), 1))
-    >>> round(float(chosen[0]), 2), bool(curve["at_edge"][0])
-    (3.0, False)
-    """
-    seen = {float(t): np.asarray(f(float(t)), dtype=np.float64) for t in grid}
-    table = np.array([seen[float(t)] for t in grid])
-    best = np.argmin(table, axis=0)
-    chosen = grid[best].astype(np.float64)
-    if refine and grid.size >= 2:
-        for j in range(table.shape[1]):
-            lo, hi = grid[max(best[j] - 1, 0)], grid[min(best[j] + 1, grid.size - 1)]
-            chosen[j] = _golden(f, j, math.log(lo), math.log(hi), seen, float(chosen[j]))
-    lambdas = np.array(sorted(seen))
-    return chosen, {"lambdas": lambdas, "scores": np.array([seen[t] for t in lambdas]),
-                    "grid": np.isin(lambdas, grid), "at_edge": (best == 0) | (best == grid.size - 1)}
+#: Public names moved, kept one release with a warning: old name -> their new home.
+MOVED = {"grid_search": "manifill.linalg.search"}
 
 
-def _golden(f, j, a, b, seen, start):
-    """Golden-section search for field ``j`` on ``log lam`` in ``[a, b]``: the best of ``start`` and its points."""
-    own = [start]
-
-    def g(t):
-        lam = float(math.exp(t))
-        if lam not in seen:
-            seen[lam] = np.asarray(f(lam), dtype=np.float64)
-        own.append(lam)
-        return seen[lam][j]
-
-    c, d = b - _GOLD * (b - a), a + _GOLD * (b - a)
-    fc, fd = g(c), g(d)
-    while b - a > REFINE_DECADES * math.log(10.0):
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - _GOLD * (b - a)
-            fc = g(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + _GOLD * (b - a)
-            fd = g(d)
-    return min(own, key=lambda t: seen[t][j])
+def __getattr__(name):
+    if name in MOVED:
+        warnings.warn(f"manifill.linalg.lamsearch.{name} is now {MOVED[name]}.{name}; the old place goes in the next "
+                      f"release", DeprecationWarning, stacklevel=2)
+        return getattr(importlib.import_module(MOVED[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -60,7 +60,8 @@ from ..errors import MeshError, OptionError, ResourceError, SampleError, SolveEr
 from ..mesh.topology import pattern_components
 from ..tolerances import TOL
 from ..validate import as_laplacian, as_values, check_option
-from .lamsearch import as_grid, check_lam, grid_search, log_grid
+from .lamsearch import as_grid, check_lam, log_grid
+from .search import grid_search
 from .quadratic import QuadraticSolver
 
 __all__ = ["SELECT_METHODS", "SmoothingFit", "smooth"]
@@ -394,7 +395,7 @@ class SmoothingFit:
             The grid searched (:meth:`default_grid` by default).
         refine : bool, optional
             Refine by golden-section search on ``log lam`` between the best
-            grid point's neighbours (:func:`manifill.linalg.lamsearch.grid_search`).
+            grid point's neighbours (:func:`manifill.linalg.search.grid_search`).
         curve : bool, optional
             Also return the curve.
 

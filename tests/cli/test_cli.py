@@ -258,7 +258,7 @@ def test_duplicates_mean_succeeds(tmp_path, capsys):
 
 def test_far_samples_accepted_with_max_snap(tmp_path, capsys):
     args, _ = bad_case(tmp_path, "far samples")
-    code, _, err = run(capsys, "harmonic", *args, "--max-snap", "2000")
+    code, _, err = run(capsys, "harmonic", *args, "--max-distance", "2000")
     assert code == 0 and err == ""
 
 
@@ -282,7 +282,7 @@ def test_on_empty_nan_writes_nan(tmp_path, capsys):
     ["info"],
     ["harmonic", "m.ply", "s.csv"],  # no -o
     ["harmonic", "m.ply", "s.csv", "-o", "o.ply", "--weights", "magic"],
-    ["harmonic", "m.ply", "s.csv", "-o", "o.ply", "--max-snap", "far"],
+    ["harmonic", "m.ply", "s.csv", "-o", "o.ply", "--max-distance", "far"],
 ])
 def test_argparse_errors_exit_2_without_traceback(capsys, argv):
     code, out, err = run(capsys, *argv)

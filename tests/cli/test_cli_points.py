@@ -69,13 +69,13 @@ def test_far_positions_refused_then_accepted_with_max_snap(case, capsys):
     code, out, err = run(capsys, "reconstruct", case["mesh"], far, "-o", o, "--method", "harmonic")
     assert code != 0 and "wrong units?" in err and "from the surface" in err
     code, out, err = run(capsys, "reconstruct", case["mesh"], far, "-o", o, "--method", "harmonic",
-                         "--max-snap", "100")
+                         "--max-distance", "100")
     assert code == 0 and err == ""
 
 
 def test_bad_max_snap_is_a_usage_error(case, capsys):
     code, out, err = run(capsys, "reconstruct", case["mesh"], case["samples"], "-o", case["tmp"] / "o.ply",
-                         "--max-snap", "far")
+                         "--max-distance", "far")
     assert_usage_error(code, out, err)
 
 
@@ -98,3 +98,14 @@ def test_auto_on_the_command_line_uses_positions_as_the_library_does(tmp_path, c
     assert "located" in out and "snapped" not in out
     want = manifill.reconstruct(V, F, P, vals, method="auto").values
     np.testing.assert_allclose(meshio.read(tmp_path / "o.vtu").point_data["t"], want, rtol=0, atol=1e-10)
+
+
+def test_the_old_max_snap_spelling_works_for_one_release_with_a_note(case, capsys):
+    """``--max-snap`` is now ``--max-distance`` (the library's ``max_distance``): the old flag still works, says so."""
+    far = case["tmp"] / "far.csv"
+    far.write_text(case["samples"].read_text() + "0.0,0.0,40.0,1.0\n")
+    code, out, err = run(capsys, "reconstruct", case["mesh"], far, "-o", case["tmp"] / "o.npy", "--method",
+                         "harmonic", "--max-snap", "100")
+    assert code == 0, err
+    assert err.strip() == ("manifill: note: --max-snap is now --max-distance (the library's max_distance); the old "
+                           "name goes in the next release")

@@ -91,8 +91,9 @@ def test_argv_is_the_hand_written_command_line(tmp_path):
 
 @pytest.mark.parametrize("command, column, cell, want, parsed", [
     ("reconstruct", "method", "gp", ("--method", "gp"), "gp"),
-    ("reconstruct", "max_snap", "0.25", ("--max-snap", "0.25"), 0.25),
-    ("reconstruct", "max-snap", "0.25", ("--max-snap", "0.25"), 0.25),
+    ("reconstruct", "max_distance", "0.25", ("--max-distance", "0.25"), 0.25),
+    ("reconstruct", "max-distance", "0.25", ("--max-distance", "0.25"), 0.25),
+    ("reconstruct", "max_snap", "0.25", ("--max-snap", "0.25"), 0.25),  # the old name, kept one release
     ("reconstruct", "uncertainty", "true", ("--uncertainty",), True),
     ("reconstruct", "clean", "TRUE", ("--clean",), True),
     ("reconstruct", "uncertainty", "false", (), False),
@@ -107,7 +108,11 @@ def test_an_option_column_is_its_flag(tmp_path, command, column, cell, want, par
     path = one_csv(tmp_path, f"mesh,samples,output,command,{column}", f"m.ply,s.csv,o.vtu,{command},\"{cell}\"")
     (job,) = read_manifest(path)
     assert (job.command, job.options) == (command, want)
-    assert namespace(job.argv())[column.replace("-", "_")] == parsed
+    assert namespace(job.argv())[OLD.get(column, column).replace("-", "_")] == parsed
+
+
+#: Columns under an option's old name -> the option's destination now.
+OLD = {"max_snap": "max_distance", "max-snap": "max_distance"}
 
 
 @pytest.mark.parametrize("key, value, want", [
@@ -115,7 +120,7 @@ def test_an_option_column_is_its_flag(tmp_path, command, column, cell, want, par
     ("bounds", "[-1.5, 2]", ("--bounds=-1.5,2",)),
     ("levels", "[0, 0.5, 1]", ("--levels", "0,0.5,1")),
     ("levels", "7", ("--levels", "7")),
-    ("max_snap", "0.1", ("--max-snap", "0.1")),
+    ("max_distance", "0.1", ("--max-distance", "0.1")),
     ("uncertainty", "true", ("--uncertainty",)),
     ("check", "false", ()),
 ])
@@ -311,7 +316,7 @@ def test_every_job_is_a_command_line_the_parser_reads_back(method, bounds, uncer
     ns = namespace(job.argv())
     assert (ns["command"], ns["mesh"], ns["samples"], ns["output"]) == ("reconstruct", "/d/m.ply", "/d/s.csv",
                                                                          "/d/o.vtu")
-    assert ns["method"] == method and ns["uncertainty"] is uncertainty and ns["max_snap"] == max_snap
+    assert ns["method"] == method and ns["uncertainty"] is uncertainty and ns["max_distance"] == max_snap
     assert ns["bounds"] == (None if bounds is None else bounds if isinstance(bounds, str) else
                             f"{bounds[0]},{bounds[1]}")
     assert ns["levels"] == (None if levels is None else ",".join(repr(v) for v in levels))

@@ -79,7 +79,7 @@ def load(args, keep_points=False, points=False, options=None):
                               f"--clean out (merge duplicate points yourself)")
         print(f"point cloud: {len(V):,} points, no faces")
     # vertex indices refer to the file's numbering, so samples are read against it
-    read = dict(duplicates=args.duplicates, max_distance=args.max_snap, vertex_numbering=mesh.vertex_numbering,
+    read = dict(duplicates=args.duplicates, max_distance=args.max_distance, vertex_numbering=mesh.vertex_numbering,
                 keep_points=keep_points)
     S = read_samples(args.samples, V, **read)
     if args.clean:

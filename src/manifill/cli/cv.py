@@ -102,7 +102,7 @@ def run(args):
     V, F, S, read = load(args, keep_points=True, points=True, options=Options.build(barriers=barriers_arg(args)))
     # positions stay positions: the energy methods and rbf constrain them where they are, as reconstruct does
     where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
-                                                                         max_distance=args.max_snap)
+                                                                         max_distance=args.max_distance)
     names = list(S.names)
     if args.field is not None:
         name = chosen_field(args, names)

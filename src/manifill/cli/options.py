@@ -1,5 +1,8 @@
 """The options several subcommands share, defined once."""
 
+import argparse
+import sys
+
 from ..surface.curve_values import CURVE_VALUES
 from ..surface.options import BOUNDS_MODES
 from ..mesh.graph import DISTANCES
@@ -10,7 +13,8 @@ from ..surface.methods.registry import method_of, names
 from ..linalg.backends import SOLVERS
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
-           "gradient_args", "check_workers", "CURVE_VALUES", "DISTANCES", "PARTITIONS", "SOLVERS", "WEIGHTS"]
+           "gradient_args", "check_workers", "max_distance_arg", "RENAMED_FLAGS", "CURVE_VALUES", "DISTANCES",
+           "PARTITIONS", "SOLVERS", "WEIGHTS"]
 
 #: What --method takes: every method of the registry, then its presets (``default``).
 
@@ -25,7 +29,7 @@ def sample_args(s):
                                    "FreeSurfer lh.thickness ...); FreeSurfer .label")
     s.add_argument("--duplicates", choices=("error", "mean"), default="error",
                    help="two samples on one vertex with different values: error (default) or average")
-    s.add_argument("--max-snap", type=float, default=None,
+    max_distance_arg(s,
                    help="largest accepted distance from a sample position to its vertex (to the surface for "
                         "the energy methods, which constrain the positions exactly) "
                         "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
@@ -163,3 +167,23 @@ def uncertainty_args(s):
                         "times the standard deviation of its samples (implies --uncertainty)")
     g.add_argument("--untrusted", choices=("mask", "nan"), default=None,
                    help="what --trust does there: mask only (default) or also set the value NaN")
+
+
+#: Options renamed, their old spelling taken for one release with a note: old -> new.
+RENAMED_FLAGS = {"--max-snap": "--max-distance"}
+
+
+class _Renamed(argparse.Action):
+    """An option under its new name, or under its old one (:data:`RENAMED_FLAGS`) with a one-line note."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if option_string in RENAMED_FLAGS:
+            print(f"manifill: note: {option_string} is now {RENAMED_FLAGS[option_string]} (the library's "
+                  f"max_distance); the old name goes in the next release", file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
+def max_distance_arg(s, help):
+    """``--max-distance`` (``max_distance`` of the library), also as ``--max-snap`` for one release."""
+    s.add_argument("--max-distance", "--max-snap", dest="max_distance", type=float, default=None, action=_Renamed,
+                   metavar="D", help=help)

@@ -90,7 +90,7 @@ def run(args):
     bar = step_bar(args, ("graph",) + steps)
     try:
         where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
-                                                                             max_distance=args.max_snap)
+                                                                             max_distance=args.max_distance)
         r = reconstruct(V, F, **where, options=options, progress=bar)
     finally:
         bar.close()

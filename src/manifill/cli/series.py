@@ -63,11 +63,11 @@ def run_series(args, out, options, exact):
     mesh = read_mesh_file(args.mesh, points=True)
     V, F = mesh.V, mesh.F
     check_barrier_numbering(mesh, options["options"].fill.barriers)
-    series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
+    series = read_series(args.samples, V, duplicates=args.duplicates, max_distance=args.max_distance,
                          vertex_numbering=mesh.vertex_numbering, keep_points=exact)
     S, T = series.samples, series.steps
     where = dict(idx=S.idx, vals=S.vals) if S.points is None else dict(idx=S.points, vals=S.point_vals,
-                                                                         max_distance=args.max_snap)
+                                                                         max_distance=args.max_distance)
     step = chunk_size(len(V), T, args.chunk)
     chunks = -(-T // step)
     print(f"{len(V):,} vertices, {len(where['vals']):,} samples, {T:,} time steps of {series.names[0]!r} "

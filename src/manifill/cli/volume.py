@@ -14,7 +14,7 @@ from ..viz.render import render, render_slices
 from .common import (add_draws, check_draws, check_names, check_outputs, chosen_field, levels, print_time,
                      print_uncertainty, std_names, step_bar, uncertainty_opts)
 from .gradients import add_gradient
-from .options import SOLVERS, WEIGHTS, gradient_args, output_args, pipeline_args, uncertainty_args
+from .options import SOLVERS, WEIGHTS, gradient_args, max_distance_arg, output_args, pipeline_args, uncertainty_args
 
 __all__ = ["add_parser", "run"]
 
@@ -47,7 +47,7 @@ def add_parser(sub):
     s.add_argument("--mask-field", default=None, help="the .vti field holding the mask (default: 'mask' or the only)")
     s.add_argument("--duplicates", choices=("error", "mean"), default="error",
                    help="two samples on one vertex with different values: error (default) or average")
-    s.add_argument("--max-snap", type=float, default=None, help="largest accepted snap distance of a position")
+    max_distance_arg(s, help="largest accepted snap distance of a position")
     s.add_argument("--weights", choices=WEIGHTS, default=None,
                    help="surface Laplacian weights (default: cotan; uniform on a voxel mask, whose digital surface "
                         "has no triangles)")
@@ -135,7 +135,7 @@ def _volume_run(args, kind, form, surface_opts):
         h = _triple(args.spacing, "spacing") if args.spacing else (h if h is not None else [1.0, 1.0, 1.0])
         o = _triple(args.origin, "origin") if args.origin else (o if o is not None else [0.0, 0.0, 0.0])
         voxels, P, _, _ = digital_surface(mask, spacing=h, origin=o, connectivity=args.connectivity)
-        S = read_samples(args.samples, P, duplicates=args.duplicates, max_distance=args.max_snap)
+        S = read_samples(args.samples, P, duplicates=args.duplicates, max_distance=args.max_distance)
         _check_samples(args, S)
         r = rv.reconstruct_volume_mask(mask, voxels[S.idx], S.vals, spacing=h, origin=o,
                                        connectivity=args.connectivity, fill_solver=args.fill_solver,
@@ -145,7 +145,7 @@ def _volume_run(args, kind, form, surface_opts):
         V, T = read_tets(args.mesh)
         on_d = boundary_vertices(T, V=V)
         # positions snap to the boundary, not to inner vertices
-        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap, snap_to=on_d)
+        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_distance, snap_to=on_d)
         _check_samples(args, S)
         r = rv.reconstruct_volume_tets(V, T, S.idx, S.vals, fill_solver=args.fill_solver,
                                        fill_weights=args.fill_weights, **surface_opts)
@@ -153,7 +153,7 @@ def _volume_run(args, kind, form, surface_opts):
     else:
         mesh = read_mesh_file(args.mesh)
         V, F = mesh.V, mesh.F
-        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_snap,
+        S = read_samples(args.samples, V, duplicates=args.duplicates, max_distance=args.max_distance,
                          vertex_numbering=mesh.vertex_numbering)
         _check_samples(args, S)
         r = rv.reconstruct_volume(V, F, S.idx, S.vals, form=form, resolution=args.resolution,

@@ -7,8 +7,8 @@ CSV
     A header with at least ``mesh,samples,output``; optional ``id``, ``command``
     (``reconstruct``, the default, or ``volume``), ``options`` (command-line arguments,
     split like a shell: ``--method harmonic --bounds 0,1``) and any option of the command
-    as a column named after its flag without dashes (``method``, ``max-snap`` or
-    ``max_snap``). An empty cell is an option not given; a flag without a value
+    as a column named after its flag without dashes (``method``, ``max-distance`` or
+    ``max_distance``). An empty cell is an option not given; a flag without a value
     (``uncertainty``, ``clean``) takes ``true`` or ``false``.
 TOML
     An optional ``[defaults]`` table (any key but ``id`` and ``output``: every job gets

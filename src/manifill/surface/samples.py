@@ -283,7 +283,7 @@ def refuse_far(dist, limit, diag, what):
         raise SampleError(
             f"{far.size} samples lie far from the mesh (row {i}: {dist[i]:.3g} from {what}, "
             f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? "
-            f"Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-snap)"
+            f"Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-distance)"
         )
 
 

@@ -116,16 +116,7 @@ def _stations(data, var, lon, lat, station, time):
         return _dataset_stations(data, var, lon, lat, station, time)
     if not hasattr(data, "columns"):
         raise OptionError(f"stations are a pandas DataFrame or an xarray Dataset, not {type(data).__name__}")
-    for c in (lon, lat):
-        if c not in data.columns:
-            raise OptionError(f"the stations have no column {c!r} (they have {_listed(data.columns)}); name their "
-                              f"longitude and latitude columns (lon=, lat=; CLI: --lon, --lat), in degrees")
-    if var in (lon, lat):
-        raise OptionError(f"var={var!r} is the stations' {'longitude' if var == lon else 'latitude'}; pass a value "
-                          f"column (CLI: --var)")
-    if var is not None and var not in data.columns:
-        raise OptionError(f"the stations have no column {var!r} (they have {_listed(data.columns)}); pass var= one "
-                          f"of them (CLI: --var)")
+    _check_names("column", data.columns, data.columns, var, lon, lat)
     rest = [c for c in data.columns if c not in (lon, lat, station)] if var is None else [var]
     columns = {c: _numbers(data[c], c, strict=var is not None) for c in rest}
     cols = [c for c in rest if columns[c] is not None]
@@ -146,6 +137,21 @@ def _check_name(name, var):
     if name in _COORDINATES:
         raise OptionError(f"the value {name!r} would share its name with the output's {name!r} coordinate; rename "
                           f"the column or variable" + ("" if var else ", or pass var= another (CLI: --var)"))
+
+
+def _check_names(kind, names, values, var, lon, lat):
+    """The longitude and latitude among ``names``, and ``var`` among the ``values`` (a table's columns, a
+    Dataset's variables), each refused in one line naming what is there."""
+    for c in (lon, lat):
+        if c not in names:
+            raise OptionError(f"the stations have no {kind} {c!r} (they have {_listed(names)}); name their longitude "
+                              f"and latitude {kind}s (lon=, lat=; CLI: --lon, --lat), in degrees")
+    if var in (lon, lat):
+        raise OptionError(f"var={var!r} is the stations' {'longitude' if var == lon else 'latitude'}; pass a value "
+                          f"{kind} (CLI: --var)")
+    if var is not None and var not in values:
+        raise OptionError(f"the stations have no {kind} {var!r} (they have {_listed(values)}); pass var= one of "
+                          f"them (CLI: --var)")
 
 
 def _listed(names, most=8):
@@ -175,16 +181,7 @@ def _numbers(column, name, strict):
 
 
 def _dataset_stations(data, var, lon, lat, station, time):
-    for c in (lon, lat):
-        if c not in data.variables:
-            raise OptionError(f"the stations have no variable {c!r} (they have {_listed(data.variables)}); name "
-                              f"their longitude and latitude variables (lon=, lat=; CLI: --lon, --lat), in degrees")
-    if var in (lon, lat):
-        raise OptionError(f"var={var!r} is the stations' {'longitude' if var == lon else 'latitude'}; pass a value "
-                          f"variable (CLI: --var)")
-    if var is not None and var not in data.data_vars:
-        raise OptionError(f"the stations have no variable {var!r} (they have {_listed(data.data_vars)}); pass var= "
-                          f"one of them (CLI: --var)")
+    _check_names("variable", data.variables, data.data_vars, var, lon, lat)
     names = [v for v in data.data_vars if v not in (lon, lat)] if var is None else [var]
     if len(names) != 1:
         raise OptionError(f"the stations have {len(names)} variables ({_listed(names)}); pass var= one of them "
@@ -254,7 +251,8 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
                           f"{float(lats[bad[0]]):g}; pass finite degrees with latitudes in [-90, 90]")
     if grid is not None and not (isinstance(grid, (int, float)) and grid > 0
                                  and abs(180.0 / grid - round(180.0 / grid)) < 1e-9):
-        raise OptionError(f"grid={grid!r} degrees does not divide 180; pass a spacing that does (1, 0.5, 0.25, 2.5, ...)")
+        raise OptionError(f"grid={grid!r} degrees does not divide 180; pass a spacing that does (1, 0.5, 0.25, "
+                          f"2.5, ...)")
     if mesh is None:
         level = _globe_level(grid, lons, lats)
         _check_globe_fits(grid, level, values.shape[1], std)

@@ -79,18 +79,19 @@ STATION_LEVEL = 6
 
 
 def _globe_level(grid, lons, lats):
-    """The sphere's level: as fine as the grid asks, and finer (up to :data:`STATION_LEVEL`) until no two stations
-    share a nearest vertex -- two stations in one triangle of a coarse sphere make the field between them as steep
-    as their difference over their distance, far beyond their values. Stations nearer than that are averaged."""
-    spacing = 1.0 if grid is None else grid
-    if not 0.05 <= spacing <= 60:
-        globe_mesh(spacing)  # refuses it with its range
-    level = _level(spacing)
+    """``(level, sphere or None)``: the sphere's level, as fine as the grid asks and finer (up to
+    :data:`STATION_LEVEL`) until no two stations share a nearest vertex -- two stations in one triangle of a coarse
+    sphere make the field between them as steep as their difference over their distance, far beyond their values
+    (stations nearer than that are merged) -- and that sphere where the search built it (small: level 6 at most)."""
+    level = _level(_resolution(1.0 if grid is None else grid))
     P = lonlat_to_xyz(lons, lats)
     distinct = np.unique(np.round(P, 12), axis=0).shape[0]
-    while level < STATION_LEVEL and np.unique(cKDTree(icosphere(level)[0]).query(P)[1]).size < distinct:
+    while level <= STATION_LEVEL:
+        sphere = icosphere(level)
+        if level == STATION_LEVEL or np.unique(cKDTree(sphere[0]).query(P)[1]).size == distinct:
+            return level, sphere
         level += 1
-    return level
+    return level, None
 
 
 def globe_mesh(resolution=1.0):
@@ -102,9 +103,14 @@ def globe_mesh(resolution=1.0):
     >>> len(V)
     2562
     """
+    return icosphere(_level(_resolution(resolution)))
+
+
+def _resolution(resolution):
+    """A sphere's resolution in degrees, checked."""
     if not (isinstance(resolution, (int, float)) and 0.05 <= resolution <= 60):
         raise OptionError(f"resolution={resolution!r} degrees; pass a number in [0.05, 60]")
-    return icosphere(_level(resolution))
+    return resolution
 
 
 def _stations(data, var, lon, lat, station, time):
@@ -253,16 +259,18 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
                                  and abs(180.0 / grid - round(180.0 / grid)) < 1e-9):
         raise OptionError(f"grid={grid!r} degrees does not divide 180; pass a spacing that does (1, 0.5, 0.25, "
                           f"2.5, ...)")
-    if mesh is None:
-        level = _globe_level(grid, lons, lats)
-        _check_globe_fits(grid, level, values.shape[1], std)
-    V, F = icosphere(level) if mesh is None else mesh
+    own = mesh is None  # the globe's own sphere, or the caller's (positions kept as given)
+    if own:
+        level, mesh = _globe_level(grid, lons, lats)
+        _check_globe_fits(grid, level, values.shape[1], std)  # before a sphere finer than the search's is built
+        mesh = icosphere(level) if mesh is None else mesh
+    V, F = mesh
     V = np.asarray(V, dtype=np.float64)
     R = float(np.median(np.linalg.norm(V, axis=1)))
     P = lonlat_to_xyz(lons, lats) * R
     options.setdefault("solver", "direct")  # one factorisation for every time step (AMG would iterate per step)
-    options.setdefault("duplicates", "mean")  # stations crowding one vertex of a coarse globe: averaged, and said
-    X, S, notes = _fields(V, F, P, values, method, std, options, snap=mesh is None)
+    options.setdefault("duplicates", "mean")  # stations at one position (or on one vertex, the fallback): averaged
+    X, S, notes = _fields(V, F, P, values, method, std, options, snap=own)
     fields = attrs.pop("fields", None)
     dims_t = [times.name] if times is not None else ([] if X.shape[1] == 1 else ["field"])
     coords_t = {times.name: times} if times is not None else ({} if X.shape[1] == 1 else {"field": fields or list(
@@ -329,13 +337,14 @@ def _fields(V, F, P, values, method, std, options, snap=True):
         raise SampleError(f"no step has three stations reporting (at most {int(finite.sum(axis=0).max())} of "
                           f"{len(P)} have a value); a field needs at least three")
     empty, merged = [], 0
+    tree = cKDTree(V)  # the stations' nearest vertices, for every set of stations reporting
     for g, rows in enumerate(patterns):
         cols = np.flatnonzero(np.ravel(which) == g)
         if rows.sum() < 3:
             empty.extend(cols.tolist())  # too few stations reporting: left NaN, and said
             continue
         options = {**options, "uncertainty": True if std else options.get("uncertainty")}
-        r, shared = _reconstruct(V, F, P[rows], values[np.ix_(rows, cols)], method, options, snap)
+        r, shared = _reconstruct(V, F, tree, P[rows], values[np.ix_(rows, cols)], method, options, snap)
         merged = max(merged, shared)
         X[:, cols] = np.asarray(r.values).reshape(len(V), -1)
         if std:
@@ -351,14 +360,14 @@ def _fields(V, F, P, values, method, std, options, snap=True):
     return X, S, notes
 
 
-def _reconstruct(V, F, P, vals, method, options, snap=True):
+def _reconstruct(V, F, tree, P, vals, method, options, snap=True):
     """``(result, stations averaged)``: the stations at their positions, but on the globe's own sphere (``snap``)
     those that share a nearest vertex (stations nearer than the finest sphere holds apart) merged into one station
     at their mean position (on the sphere) with their mean values: two stations inside one triangle would make the
     field between them as steep as their difference over their distance. Where the positions still crowd a
     triangle (rows not independent), every station goes to its nearest vertex. On the caller's mesh the positions
     are kept as given."""
-    nearest = cKDTree(V).query(P)[1]
+    nearest = tree.query(P)[1]
     groups, inv = np.unique(nearest, return_inverse=True)
     inv = np.ravel(inv)
     shared = int(len(P) - groups.size)
@@ -375,7 +384,7 @@ def _reconstruct(V, F, P, vals, method, options, snap=True):
     except SampleError as exc:
         if "not independent" not in str(exc):
             raise
-    nearest = cKDTree(V).query(P)[1]
+    nearest = tree.query(P)[1]
     return Reconstructor(V, F, nearest, method=method, fields=vals.shape[1],
                          **{"duplicates": "mean", **options}).apply(vals), shared
 

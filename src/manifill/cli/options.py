@@ -16,8 +16,6 @@ __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args
            "gradient_args", "check_workers", "max_distance_arg", "RENAMED_FLAGS", "CURVE_VALUES", "DISTANCES",
            "PARTITIONS", "SOLVERS", "WEIGHTS"]
 
-#: What --method takes: every method of the registry, then its presets (``default``).
-
 MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
 
 
@@ -29,10 +27,9 @@ def sample_args(s):
                                    "FreeSurfer lh.thickness ...); FreeSurfer .label")
     s.add_argument("--duplicates", choices=("error", "mean"), default="error",
                    help="two samples on one vertex with different values: error (default) or average")
-    max_distance_arg(s,
-                   help="largest accepted distance from a sample position to its vertex (to the surface for "
-                        "the energy methods, which constrain the positions exactly) "
-                        "(default: 5%% of the mesh's bounding-box diagonal plus its vertex spacing)")
+    max_distance_arg(s, help="largest accepted distance from a sample position to its vertex (to the surface for the "
+                             "energy methods, which constrain the positions exactly) (default: 5%% of the mesh's "
+                             "bounding-box diagonal plus its vertex spacing)")
     s.add_argument("--clean", action="store_true",
                    help="weld coinciding vertices and drop unused vertices and zero-area faces first")
 
@@ -169,8 +166,8 @@ def uncertainty_args(s):
                    help="what --trust does there: mask only (default) or also set the value NaN")
 
 
-#: Options renamed, their old spelling taken for one release with a note: old -> new.
-RENAMED_FLAGS = {"--max-snap": "--max-distance"}
+#: Options renamed, their old spelling taken for one release with a note: old -> the new one, as the note says it.
+RENAMED_FLAGS = {"--max-snap": "--max-distance (the library's max_distance)"}
 
 
 class _Renamed(argparse.Action):
@@ -178,8 +175,8 @@ class _Renamed(argparse.Action):
 
     def __call__(self, parser, namespace, values, option_string=None):
         if option_string in RENAMED_FLAGS:
-            print(f"manifill: note: {option_string} is now {RENAMED_FLAGS[option_string]} (the library's "
-                  f"max_distance); the old name goes in the next release", file=sys.stderr)
+            print(f"manifill: note: {option_string} is now {RENAMED_FLAGS[option_string]}; the old name goes in the "
+                  f"next release", file=sys.stderr)
         setattr(namespace, self.dest, values)
 
 

@@ -64,7 +64,7 @@ def memory_bytes(limit):
     Raises
     ------
     OptionError
-        Not a size, or not above zero.
+        Not a size, not above zero, above the machine's memory; dask/distributed missing (the ``[batch]`` extra).
 
     Examples
     --------
@@ -76,6 +76,7 @@ def memory_bytes(limit):
     fix = "pass bytes or a size such as 4GB or 512MiB (CLI: --memory-limit 4GB)"
     if isinstance(limit, bool) or not isinstance(limit, (int, float, str)):
         raise OptionError(f"memory_limit={limit!r} is not a size; {fix}")
+    need_distributed("a memory limit for Dask's workers")  # the [batch] extra named, not an ImportError
     if isinstance(limit, str):
         from dask.utils import parse_bytes
 

@@ -28,7 +28,7 @@ from ..mesh.edges import EdgeIndex
 from ..mesh.graph import mesh_graph
 from ..validate import bbox_diagonal, unit_scale
 from ..validate.options import first_entries
-from .samples import distance_limit
+from .samples import distance_limit, refuse_far
 
 __all__ = ["Cut", "barrier_edges", "barrier_faces", "renumber"]
 
@@ -52,7 +52,8 @@ def barrier_edges(V, F, barriers, index=None):
     elif isinstance(barriers, (list, tuple)) and len(barriers):
         G = mesh_graph(V, F, index=index)
         lookup = sp.csr_array((np.arange(1, len(index.E) + 1), (index.E[:, 0], index.E[:, 1])), shape=(n, n))
-        edges = np.unique(np.concatenate([_path_edges(V, G, lookup, p, j) for j, p in enumerate(barriers)]))
+        snap = _Snapper(V)
+        edges = np.unique(np.concatenate([_path_edges(V, G, lookup, p, j, snap) for j, p in enumerate(barriers)]))
     else:
         raise OptionError("barriers is a list of polylines (each vertex indices (k,) or positions (k, 3)) or an array "
                           "of per-face labels; pass one of those")
@@ -118,12 +119,12 @@ def _label_edges(index, labels):
     return np.flatnonzero((lo != hi) & (hi > np.iinfo(np.int64).min))
 
 
-def _path_edges(V, G, lookup, path, j):
+def _path_edges(V, G, lookup, path, j, snap):
     P = np.asarray(path)
     if P.ndim == 2 and P.shape[1] == 3 and P.dtype.kind == "f":
         if not np.isfinite(P).all():
             raise OptionError(f"barrier {j} has a NaN or infinite position; give finite (k, 3) positions")
-        verts = _snapped(V, P, j)
+        verts = snap(P, j)
     elif P.ndim == 1 and P.dtype.kind in "iu":
         verts = P.astype(np.int64)
         bad = np.flatnonzero((verts < 0) | (verts >= len(V)))
@@ -152,22 +153,24 @@ def _path_edges(V, G, lookup, path, j):
     return np.asarray(out, dtype=np.int64)
 
 
-def _snapped(V, P, j):
-    """The nearest vertices of a barrier's positions; a position farther from the mesh than a sample may be is
+class _Snapper:
+    """Barrier positions to their nearest vertices: the vertices' tree and the accepted distance built at the first
+    barrier given by positions, once for all of them; a position farther from the mesh than a sample may be is
     refused as samples are ("wrong units?")."""
-    sc = unit_scale(V)
-    tree = cKDTree(V / sc)
-    dist, verts = tree.query(P / sc)
-    dist = dist * sc
-    diag = bbox_diagonal(V)
-    limit = distance_limit(tree, sc, diag)
-    far = np.flatnonzero(~(dist <= limit))
-    if far.size:
-        i = int(far[np.argmax(dist[far])])
-        raise OptionError(f"barrier {j} has {far.size} points far from the mesh (point {i}: {dist[i]:.3g} from the "
-                          f"nearest vertex, {dist[i] / diag:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); "
-                          f"wrong units? Give the barrier's positions in the mesh's units")
-    return verts
+
+    def __init__(self, V):
+        self.V, self.tree = V, None
+
+    def __call__(self, P, j):
+        if self.tree is None:
+            self.sc, self.diag = unit_scale(self.V), bbox_diagonal(self.V)
+            self.tree = cKDTree(self.V / self.sc)
+            self.limit = distance_limit(self.tree, self.sc, self.diag)
+        dist, verts = self.tree.query(P / self.sc)
+        refuse_far(dist * self.sc, self.limit, self.diag, "the nearest vertex", lead=f"barrier {j} has {{n}} points "
+                   f"far from the mesh", row="point", fix="Give the barrier's positions in the mesh's units",
+                   error=OptionError)
+        return verts
 
 
 class Cut:

@@ -259,7 +259,9 @@ def distance_limit(tree, sc, diag, max_distance=None):
     return limit
 
 
-def refuse_far(dist, limit, diag, what):
+def refuse_far(dist, limit, diag, what, *, lead="{n} samples lie far from the mesh", row="row",
+               fix="Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-distance)",
+               error=SampleError):
     """Raise if a distance exceeds ``limit``: one line with the worst row, its ratio to the mesh and "wrong units?".
 
     Parameters
@@ -270,20 +272,25 @@ def refuse_far(dist, limit, diag, what):
         The accepted distance, the mesh's size.
     what : str
         What the distance is measured to (``"the nearest vertex"``, ``"the surface"``).
+    lead, row, fix : str, optional
+        The message's opening (``{n}``: how many are far), what a position is called, and the fix: a barrier's
+        positions say theirs.
+    error : type, optional
+        The exception raised.
 
     Raises
     ------
     SampleError
+        (or ``error``)
     """
     far = np.flatnonzero(~(dist <= limit))
     if far.size:
         i = int(far[np.argmax(dist[far])])
         with np.errstate(over="ignore"):
             ratio = dist[i] / diag
-        raise SampleError(
-            f"{far.size} samples lie far from the mesh (row {i}: {dist[i]:.3g} from {what}, "
-            f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? "
-            f"Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-distance)"
+        raise error(
+            f"{lead.format(n=far.size)} ({row} {i}: {dist[i]:.3g} from {what}, "
+            f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? {fix}"
         )
 
 

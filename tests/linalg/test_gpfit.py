@@ -17,7 +17,8 @@ import scipy.sparse as sp
 import pytest
 from scipy.special import kv
 
-from manifill.linalg.gpfit import Likelihood, fit_range, restricted_loglik
+from manifill.linalg.gpfit import fit_range
+from manifill.linalg.likelihood import Likelihood, restricted_loglik
 
 
 def _points(m, seed):
@@ -161,7 +162,8 @@ def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean, facto
     """log det R = log det Q_ff - log det Q and R^-1 = the Schur complement: the kriging form's value exactly."""
     from manifill.linalg.factorise import factorise
     from manifill.linalg.gaussian import observation_matrix
-    from manifill.linalg.sparselik import LogdetFactors, VertexLikelihood
+    from manifill.linalg.likelihood import VertexLikelihood
+    from manifill.linalg.logdet import LogdetFactors
     from manifill.linalg.spde import MaternShape
     from manifill.mesh.laplacian import laplacian, mass_matrix
     from manifill.mesh.roots import gradient_root
@@ -202,7 +204,7 @@ def test_the_sparse_vertex_likelihood_is_the_dense_one(alpha, kappa, mean, facto
 def test_the_sparse_likelihood_refuses_a_factor_that_will_not_fit(monkeypatch):
     from manifill import memory
     from manifill.errors import ResourceError
-    from manifill.linalg.sparselik import LogdetFactors
+    from manifill.linalg.logdet import LogdetFactors
 
     monkeypatch.setattr(memory, "available_bytes", lambda: 1000)
     A = sp.identity(50, format="csc") * 2.0
@@ -214,7 +216,7 @@ def test_the_sparse_likelihood_refuses_a_factor_that_will_not_fit(monkeypatch):
 def test_leave_one_out_residuals_are_universal_krigings_refits(mean):
     """One factor with the samples last gives every sample's leave-one-out residual: the same as refitting without
     it (the constant mean estimated again, its variance added: universal kriging), sample by sample, densely."""
-    from manifill.linalg.sparselik import loo_residuals
+    from manifill.linalg.logdet import loo_residuals
     from manifill.linalg.spde import MaternShape
     from manifill.mesh.laplacian import laplacian, mass_matrix
     from manifill.mesh.roots import gradient_root

@@ -451,7 +451,7 @@ def test_the_fit_on_sparse_factors_finds_the_dense_fits_optimum_on_every_sample(
     # beyond fit_samples the likelihood was that of a random subset of 200; now of every sample, from sparse
     # factors (log det Q_ff - log det Q, one solve): the same function (tests/linalg/test_gpfit.py), so the same
     # optimum within the search's tolerance (3% in kappa), here inside the search's bounds
-    from manifill.linalg import sparselik
+    from manifill.linalg import logdet as sparselik
 
     if not sparselik.sparse_fit_pays():
         pytest.skip("the fit on every sample runs with the [cholmod] extra (scikit-sparse) only")

@@ -4,8 +4,8 @@
 (scikit-sparse, the ``[cholmod]`` extra) where it is installed, else from SuperLU in symmetric mode (``A = L D L'``
 with diagonal pivots, ``L sqrt(D)`` the Cholesky factor), which needs nothing beyond SciPy; :class:`SamplesLast`
 is one CHOLMOD factorisation with the observed nodes last. The direct solves (:mod:`manifill.linalg.factorise`),
-the Gaussian fields (:mod:`manifill.linalg.gaussian`), the likelihood (:mod:`manifill.linalg.sparselik`) and the
-selected inversion (:mod:`manifill.linalg.selinv`) take their factors here.
+the Gaussian fields (:mod:`manifill.linalg.gaussian`), the likelihood's factors (:mod:`manifill.linalg.logdet`)
+and the selected inversion (:mod:`manifill.linalg.selinv`) take their factors here.
 """
 
 import numpy as np

@@ -39,7 +39,7 @@ from .backends import make_linear_solver
 from .quadratic import QuadraticSolver
 from .cholesky import SAMPLES_LAST_MAX, Factor, SamplesLast, cholesky, cholmod_available
 from .selinv import SelectedInverse
-from .sparselik import LOO_MAX, loo_residuals
+from .logdet import LOO_MAX, loo_residuals
 
 __all__ = ["VARIANCES", "EXACT_MAX", "Conditional", "exact_by_default", "factoriser_for", "loo_summary",
            "observation_matrix", "variance_summary"]
@@ -228,9 +228,9 @@ class Conditional:
         return cholesky(M)
 
     def loo(self, Y, mean="constant"):
-        """Leave-one-out residuals of exact vertex data (:func:`~manifill.linalg.sparselik.loo_residuals`, units
+        """Leave-one-out residuals of exact vertex data (:func:`~manifill.linalg.logdet.loo_residuals`, units
         of the scale), from the order of the exact variance's factor; None where not computed (noise, points
-        inside faces, no exact variance yet, more than :data:`~manifill.linalg.sparselik.LOO_MAX` samples)."""
+        inside faces, no exact variance yet, more than :data:`~manifill.linalg.logdet.LOO_MAX` samples)."""
         f = getattr(self, "_factor_used", None)
         if self.eta is not None or self.rows is not None or (f is None and self._sl is None) \
                 or not 3 <= self.k <= LOO_MAX:

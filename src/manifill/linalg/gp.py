@@ -25,7 +25,8 @@ import numpy as np
 from ..errors import OptionError, SampleError
 from .factorise import factorise
 from .gaussian import VARIANCES, Conditional, factoriser_for, loo_summary, observation_matrix, variance_summary
-from .sparselik import LogdetFactors, VertexLikelihood, sparse_fit_pays
+from .likelihood import VertexLikelihood
+from .logdet import LogdetFactors, sparse_fit_pays
 from .gpfit import fit_range, near_euclidean
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
 
@@ -318,7 +319,7 @@ def _fit_data(Y, opts, positions, every=False):
 def _fit(shape, idx, rows, Y, opts, prior, lengths, positions, report):
     """The fitted hyperparameters (:class:`_Hyper`); adds ``loglik``, ``fit`` (``fit_start``) and ``fitted``."""
     p = Y.shape[1]
-    # exact samples at vertices, many of them: the likelihood of all from sparse factors (sparselik), not of a
+    # exact samples at vertices, many of them: the likelihood of all from sparse factors (likelihood), not of a
     # subset from its dense covariance
     every = (rows is None and Y.shape[0] > opts.fit_samples and opts.sigma == "auto" and opts.noise != "auto"
              and not np.any(_noise2(opts, p)) and sparse_fit_pays())

@@ -1,25 +1,10 @@
-"""The restricted likelihood of exact samples at vertices from sparse factors: every sample, no dense covariance.
+"""Sparse factors with their log-determinants for the likelihood's trials, and leave-one-out residuals.
 
-For the field ``x ~ N(beta 1, s^2 Q^-1)`` observed exactly at the vertices ``s`` (the others ``f``), the data's
-covariance is ``s^2 R`` with ``R = (Q^-1)_ss`` and, by the Schur complement,
-
-    R^-1 = S = Q_ss - Q_sf Q_ff^-1 Q_fs,        log det R = log det Q_ff - log det Q,
-
-so one factorisation of ``Q_ff`` (and one of ``K``: ``log det Q = 2 log det K - log det C`` for ``alpha = 2``)
-gives the likelihood of all ``m`` samples (with CHOLMOD, one factorisation of ``Q`` with the samples ordered
-last instead: ``log det R = -log det S`` from its last diagonal entries, 25% less per trial at 163k vertices),
-where the kriging form (:mod:`manifill.linalg.gpfit`) builds the dense ``m x m`` matrix ``R`` by ``m`` solves and
-so fits on a subset. The value is the same
-(:meth:`manifill.linalg.gpfit.Likelihood.profiled` with no noise, the scale profiled, the mean by REML or
-known).
-
-Its derivative in ``kappa`` (:meth:`VertexLikelihood.slope`) comes from the same factors by selected inversion
-(:mod:`manifill.linalg.selinv`): ``d log det Q_ff = tr(Q_ff^-1 dQ_ff)`` on ``Q``'s pattern, ``d log det K =
-2 kappa sum_i c_i (K^-1)_ii``, and ``d (t' S t) = x' dQ x`` with ``x`` the extension of ``t`` that ``S`` minimises
-(``x_f = -Q_ff^-1 Q_fs t``), with ``dQ = 4 kappa K`` (``alpha = 2``) or ``2 kappa C``.
+:class:`LogdetFactors` factorises one pattern after another (``Q_ff``, ``K``, or ``Q`` with the samples last) for
+:class:`manifill.linalg.likelihood.VertexLikelihood`, CHOLMOD's symbolic analyses kept between trials;
+:func:`loo_residuals` gives every sample's leave-one-out residual from one factor with the samples last.
 """
 
-import math
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,11 +13,9 @@ from ..errors import SolveError
 from ..memory import check_fits, lu_memory
 from .cholesky import (NOT_DEFINITE, SAMPLES_LAST_MAX, SamplesLast, cholesky, cholmod_available, cholmod_module,
                        from_cholmod, superlu_spd)
-from .selinv import SelectedInverse
 
-__all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "VertexLikelihood", "LOO_MAX", "loo_residuals"]
+__all__ = ["spd_logdet", "sparse_fit_pays", "LogdetFactors", "LOO_MAX", "loo_residuals"]
 
-_LOG2PI = math.log(2.0 * math.pi)
 
 #: Most samples whose leave-one-out residuals :func:`loo_residuals` computes (a dense ``m x m`` block of a factor
 #: with the samples last: :data:`manifill.linalg.cholesky.SAMPLES_LAST_MAX`).
@@ -108,88 +91,6 @@ class LogdetFactors:
             raise SolveError(NOT_DEFINITE) from None
         return (from_cholmod(f) if selected else f), float(f.logdet())
 
-
-
-class VertexLikelihood:
-    """``-2 log L`` of the columns of ``Y`` observed exactly at the vertices ``idx``, for one ``kappa``.
-
-    Parameters
-    ----------
-    shape : manifill.linalg.spde.MaternShape
-    kappa : float
-    idx : (m,) int64 numpy array
-        Sorted unique observed vertices.
-    Y : (m, p) numpy array
-    mean : 'constant' or float
-        Estimated constant mean (REML) or a known one.
-    factors : LogdetFactors, optional
-        Shared by the trials of one fit (CHOLMOD's symbolic analyses are kept there).
-    """
-
-    def __init__(self, shape, kappa, idx, Y, mean="constant", factors=None, slope=False):
-        factors = LogdetFactors() if factors is None else factors
-        n = shape.n
-        free = np.setdiff1d(np.arange(n), idx)
-        Q = sp.csr_array(shape.precision(kappa))
-        Qff = Q[free][:, free]
-        Qsf = sp.csr_array(Q[idx][:, free])
-        Qss = Q[idx][:, idx]
-        if factors.name == "cholmod" and not slope and len(idx) <= SAMPLES_LAST_MAX:  # log det R = -log det S
-            sl = factors.samples_last(Q, idx)
-            self.logdet_r = -sl.logdet_schur()
-            solve_ff = sl.solve_free
-        else:
-            f_ff, ld_ff = factors.factor("Q_ff", Qff, selected=slope)
-            f_k, ld_k = factors.factor("K", shape.K(kappa), selected=slope)
-            ld_q = ld_k if shape.alpha == 1 else 2.0 * ld_k - float(np.log(shape.mid).sum())
-            self.logdet_r = ld_ff - ld_q
-            solve_ff = f_ff.solve if slope else f_ff
-        self.m = len(idx)
-        self.known = not isinstance(mean, str)
-        Y = np.asarray(Y, dtype=np.float64).reshape(self.m, -1) - (float(mean) if self.known else 0.0)
-        T = np.column_stack([np.ones(self.m), Y])
-        Xf = -np.asarray(solve_ff(np.asarray(Qsf.T @ T))).reshape(len(free), -1)
-        self.G = T.T @ (Qss @ T + Qsf @ Xf)  # [1 Y]' S [1 Y]
-        self.kappa = kappa
-        self.dG = self.dlogdet_r = None
-        if slope:
-            dQ = shape.dprecision(kappa)
-            X = np.empty((n, T.shape[1]))
-            X[idx], X[free] = T, Xf
-            self.dG = X.T @ (dQ @ X)  # d/dkappa of [1 Y]' S [1 Y]
-            tr_ff = SelectedInverse(f_ff).trace_product(dQ[free][:, free])
-            dld_k = 2.0 * kappa * float(shape.c @ SelectedInverse(f_k).diagonal())
-            self.dlogdet_r = tr_ff - (dld_k if shape.alpha == 1 else 2.0 * dld_k)
-
-    def dof(self):
-        """Degrees of freedom of the scale: ``m - 1`` (REML) or ``m``."""
-        return self.m - (0 if self.known else 1)
-
-    def profiled(self, eta, j):
-        """``(-2 log L, s^2)`` of field ``j`` with the scale profiled (no noise: ``eta`` must be 0)."""
-        if eta:
-            raise ValueError("the vertex likelihood is for exact samples (eta = 0)")
-        a, b, c = self.G[0, 0], self.G[0, j + 1], self.G[j + 1, j + 1]
-        f = self.dof()
-        q = c if self.known else c - b * b / a
-        s2 = max(q / f, 1e-300)
-        ld = self.logdet_r + (0.0 if self.known else math.log(a))
-        return ld + f * math.log(s2) + f + f * _LOG2PI, s2
-
-    def slope(self, j):
-        """``d(-2 log L) / d log kappa`` of :meth:`profiled` for field ``j`` (built with ``slope=True``)."""
-        if self.dG is None:
-            raise ValueError("build the likelihood with slope=True for its derivative")
-        G, dG, f = self.G, self.dG, self.dof()
-        a, b, c = G[0, 0], G[0, j + 1], G[j + 1, j + 1]
-        da, db, dc = dG[0, 0], dG[0, j + 1], dG[j + 1, j + 1]
-        if self.known:
-            d = self.dlogdet_r + f * dc / c
-        else:
-            q = c - b * b / a
-            dq = dc - 2.0 * b * db / a + b * b * da / (a * a)
-            d = self.dlogdet_r + da / a + f * dq / q
-        return float(d * self.kappa)
 
 
 def loo_residuals(Q, idx, Y, free_order, mean="constant", Lss=None):

@@ -6,7 +6,7 @@ from ..mesh.graph import mesh_graph
 from ..surface.gradual import check_gradual
 from ..validate import as_mesh
 from .common import levels, load
-from .options import DISTANCES, sample_args
+from .options import choices_of, sample_args
 
 __all__ = ["add_parser", "run"]
 
@@ -21,7 +21,7 @@ def add_parser(sub):
     s.add_argument("--levels", default=None,
                    help="a count of uniform levels, or comma-separated levels (write --levels=-1,0,1 when "
                         "the first is negative; default: the finest step that works)")
-    s.add_argument("--distance", choices=DISTANCES, default="hops", help="graph distance (default: hops)")
+    s.add_argument("--distance", choices=choices_of("distance"), default="hops", help="graph distance (default: hops)")
     s.set_defaults(func=run)
 
 

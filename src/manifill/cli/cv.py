@@ -5,7 +5,7 @@ import time
 from ..errors import OptionError
 from ..surface.options import Options
 from .common import barriers_arg, bounds_arg, chosen_field, levels, load, smoothing_arg
-from .options import DISTANCES, SOLVERS, WEIGHTS, cloud_args, sample_args
+from .options import choices_of, cloud_args, default_of, sample_args
 
 __all__ = ["add_parser", "run", "parse_methods", "parse_folds"]
 
@@ -28,9 +28,12 @@ def add_parser(sub):
     s.add_argument("--seed", type=int, default=0, help="seed of the random split (default: 0)")
     s.add_argument("--field", default=None, metavar="NAME",
                    help="cross-validate this field only (default: all fields together)")
-    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
-    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
-    s.add_argument("--distance", choices=DISTANCES, default="length", help="partition distance (default: length)")
+    s.add_argument("--weights", choices=choices_of("weights"), default=default_of("weights"),
+                   help=f"Laplacian weights (default: {default_of('weights')})")
+    s.add_argument("--solver", choices=choices_of("solver"), default=default_of("solver"),
+                   help=f"linear solver (default: {default_of('solver')})")
+    s.add_argument("--distance", choices=choices_of("distance"), default=default_of("distance"),
+                   help=f"partition distance (default: {default_of('distance')})")
     cloud_args(s)
     s.set_defaults(func=run)
 

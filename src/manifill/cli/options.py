@@ -3,18 +3,45 @@
 import argparse
 import sys
 
-from ..surface.curve_values import CURVE_VALUES
-from ..surface.options import BOUNDS_MODES
-from ..mesh.graph import DISTANCES
-from ..surface.harmonic import ON_EMPTY
-from ..mesh.laplacian import WEIGHTS
-from ..surface.partition import PARTITIONS
+from ..linalg.gp import GPOptions
+from ..surface.options import CONSTRAINTS, GROUPS
 from ..surface.methods.registry import method_of, names
-from ..linalg.backends import SOLVERS
+from ..validate.constraints import choices
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
-           "gradient_args", "check_workers", "max_distance_arg", "RENAMED_FLAGS", "CURVE_VALUES", "DISTANCES",
-           "PARTITIONS", "SOLVERS", "WEIGHTS"]
+           "gradient_args", "check_workers", "max_distance_arg", "RENAMED_FLAGS", "OPTION_FLAGS", "forms_of",
+           "choices_of", "default_of"]
+
+#: Every flag that sets one option of the library, and that option (``gp.`` for :class:`manifill.GPOptions`'):
+#: its choices and default come from the option's constraints table, and a test tries a wrong value for each.
+OPTION_FLAGS = {
+    "--duplicates": "duplicates", "--max-distance": "max_distance", "--weights": "weights", "--solver": "solver",
+    "--on-empty": "on_empty", "--bounds": "bounds", "--bounds-mode": "bounds_mode", "--smoothing": "smoothing",
+    "--partition": "partition", "--curve-values": "curve_values", "--distance": "distance", "--levels": "levels",
+    "--neighbours": "neighbours", "--barriers": "barriers", "--trust": "trust", "--untrusted": "untrusted",
+    "--gp-alpha": "gp.alpha", "--gp-range": "gp.range", "--gp-sigma": "gp.sigma", "--noise": "gp.noise",
+    "--variance": "gp.variance", "--variance-samples": "gp.samples",
+}
+
+
+def forms_of(name):
+    """The constraints of one option, by its flat keyword or ``gp.<name>``."""
+    if name.startswith("gp."):
+        return GPOptions.CONSTRAINTS[name[3:]]
+    return CONSTRAINTS[name]
+
+
+def choices_of(name):
+    """The closed set of one option (for ``choices=``)."""
+    return choices(forms_of(name))
+
+
+def default_of(name):
+    """The library's default of one option (its group's)."""
+    if name.startswith("gp."):
+        return GPOptions.__dataclass_fields__[name[3:]].default
+    group = next(cls for cls in GROUPS.values() if name in cls.CONSTRAINTS)
+    return group.__dataclass_fields__[name].default
 
 MESH_HELP = ".vtu .vtp .vtk .ply .off .obj .stl .surf.gii, or a FreeSurfer surface such as lh.pial"
 
@@ -25,7 +52,7 @@ def sample_args(s):
     s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy; "
                                    "per-vertex data with NaN where unmeasured (.func.gii, .shape.gii, .mgh, "
                                    "FreeSurfer lh.thickness ...); FreeSurfer .label")
-    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
+    s.add_argument("--duplicates", choices=choices_of("duplicates"), default=default_of("duplicates"),
                    help="two samples on one vertex with different values: error (default) or average")
     max_distance_arg(s, help="largest accepted distance from a sample position to its vertex (to the surface for the "
                              "energy methods, which constrain the positions exactly) (default: 5%% of the mesh's "
@@ -39,9 +66,11 @@ def fill_args(s):
     s.add_argument("-o", "--output", required=True,
                    help="output: .vtu/.vtp/.vtk/.ply (mesh with named fields) or .csv/.npy (values); for "
                         "reconstruct also a time series: .xdmf (with .h5), .pvd (with a folder of .vtu), .h5")
-    s.add_argument("--weights", choices=WEIGHTS, default="cotan", help="Laplacian weights (default: cotan)")
-    s.add_argument("--solver", choices=SOLVERS, default="auto", help="linear solver (default: auto)")
-    s.add_argument("--on-empty", choices=ON_EMPTY, default="error",
+    s.add_argument("--weights", choices=choices_of("weights"), default=default_of("weights"),
+                   help=f"Laplacian weights (default: {default_of('weights')})")
+    s.add_argument("--solver", choices=choices_of("solver"), default=default_of("solver"),
+                   help=f"linear solver (default: {default_of('solver')})")
+    s.add_argument("--on-empty", choices=choices_of("on_empty"), default=default_of("on_empty"),
                    help="a component without samples: error (default) or fill with NaN")
 
 
@@ -104,7 +133,7 @@ def energy_args(s):
     s.add_argument("--bounds", default=None, metavar="samples|LO,HI",
                    help="keep the field within these bounds ('samples': each field's sample range), as "
                         "--bounds-mode says")
-    s.add_argument("--bounds-mode", choices=BOUNDS_MODES, default=None,
+    s.add_argument("--bounds-mode", choices=choices_of("bounds_mode"), default=None,
                    help="exact (default with --bounds): the minimiser within the bounds, an active set (gvf-harmonic: "
                         "curve values projected onto them, then the bounded fill); project: the field without bounds, "
                         "then clipped onto them (one solve; any method)")
@@ -118,10 +147,12 @@ def pipeline_args(s, *, method_help="default: the measured default, gvf-harmonic
     """The options of the surface pipeline (Steps 1-6), shared by reconstruct and volume."""
     s.add_argument("--method", choices=names(), default=None,
                    help=f"{method_help}; " + "; ".join(f"{name}: {method_of(name).summary}" for name in names(False)))
-    s.add_argument("--partition", choices=PARTITIONS, default="delaunay", help="default: delaunay")
-    s.add_argument("--curve-values", choices=CURVE_VALUES, default=None,
+    s.add_argument("--partition", choices=choices_of("partition"), default=default_of("partition"),
+                   help=f"default: {default_of('partition')}")
+    s.add_argument("--curve-values", choices=choices_of("curve_values"), default=None,
                    help="default: monotone for the default method, hermite for --method gvf-harmonic")
-    s.add_argument("--distance", choices=DISTANCES, default="length", help="default: length")
+    s.add_argument("--distance", choices=choices_of("distance"), default=default_of("distance"),
+                   help=f"default: {default_of('distance')}")
     s.add_argument("--levels", default=None, help="a count of uniform levels, or comma-separated levels")
 
 
@@ -140,7 +171,7 @@ def uncertainty_args(s):
     g.add_argument("--uncertainty", action="store_true",
                    help="also write each field's posterior standard deviation as <field>_std (--method gp always "
                         "does; harmonic, biharmonic and triharmonic read as Gaussian fields)")
-    g.add_argument("--gp-alpha", type=int, choices=(1, 2), default=None,
+    g.add_argument("--gp-alpha", type=int, choices=choices_of("gp.alpha"), default=None,
                    help="gp: SPDE order, 2 (default: Matérn nu = 1 on a surface) or 1")
     g.add_argument("--gp-range", default=None, metavar="X|auto",
                    help="gp: distance at which the correlation falls to about 0.13, in mesh units (default: auto, "
@@ -150,7 +181,7 @@ def uncertainty_args(s):
     g.add_argument("--noise", default=None, metavar="X|auto",
                    help="gp: standard deviation of the measurement noise, in value units (default: 0, the samples "
                         "are interpolated; auto: fitted)")
-    g.add_argument("--variance", choices=("auto", "exact", "sampled"), default=None,
+    g.add_argument("--variance", choices=choices_of("gp.variance"), default=None,
                    help="gp: how the std is computed: exact (selected inversion of the sparse Cholesky factor), "
                         "sampled (Monte Carlo, with its error in the summary) or auto (default: exact with the "
                         "[cholmod] extra or up to 20,000 unknowns)")
@@ -162,7 +193,7 @@ def uncertainty_args(s):
     g.add_argument("--trust", type=float, default=None, metavar="T",
                    help="mark as untrusted (point field 'trusted' = 0) every vertex where a field's std exceeds T "
                         "times the standard deviation of its samples (implies --uncertainty)")
-    g.add_argument("--untrusted", choices=("mask", "nan"), default=None,
+    g.add_argument("--untrusted", choices=choices_of("untrusted"), default=None,
                    help="what --trust does there: mask only (default) or also set the value NaN")
 
 

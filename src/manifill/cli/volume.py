@@ -14,7 +14,10 @@ from ..viz.render import render, render_slices
 from .common import (add_draws, check_draws, check_names, check_outputs, chosen_field, levels, print_time,
                      print_uncertainty, std_names, step_bar, uncertainty_opts)
 from .gradients import add_gradient
-from .options import SOLVERS, WEIGHTS, gradient_args, max_distance_arg, output_args, pipeline_args, uncertainty_args
+from ..solid.estimates import VOLUME_CONSTRAINTS
+from ..validate.constraints import choices
+from .options import (choices_of, default_of, gradient_args, max_distance_arg, output_args, pipeline_args,
+                      uncertainty_args)
 
 __all__ = ["add_parser", "run"]
 
@@ -31,27 +34,29 @@ def add_parser(sub):
     s.add_argument("samples", help="samples: .csv with header vertex,value[,...] or x,y,z,value[,...]; .npz; .npy "
                                    "(for a mask, vertices are boundary voxels in C order; positions are simpler)")
     s.add_argument("-o", "--output", required=True, help="output: .vti/.npy (voxels) or .vtu/.vtk/.msh (tets)")
-    s.add_argument("--form", choices=("voxels", "tets"), default="voxels",
+    s.add_argument("--form", choices=choices(VOLUME_CONSTRAINTS["form"]), default="voxels",
                    help="how to fill a closed surface (default: voxels)")
     s.add_argument("--resolution", type=int, default=128, help="voxels along the longest side (default: 128)")
-    s.add_argument("--connectivity", type=int, choices=(6, 18, 26), default=6, help="voxel neighbours (default: 6)")
+    s.add_argument("--connectivity", type=int, choices=choices(VOLUME_CONSTRAINTS["connectivity"]), default=6,
+                   help="voxel neighbours (default: 6)")
     s.add_argument("--max-volume", type=float, default=None, help="largest tetrahedron volume (--form tets)")
-    s.add_argument("--fill-solver", choices=("auto", "multigrid", "amg", "direct"), default="auto",
+    s.add_argument("--fill-solver", choices=choices(VOLUME_CONSTRAINTS["fill_solver"]), default="auto",
                    help="solver of the inside: multigrid (voxels only), amg or direct (default: auto = multigrid "
                         "for voxels; for tets direct up to a size, then amg)")
-    s.add_argument("--fill-weights", choices=("cotan", "uniform"), default="cotan",
+    s.add_argument("--fill-weights", choices=choices(VOLUME_CONSTRAINTS["fill_weights"]), default="cotan",
                    help="weights of the inside's tetrahedral Laplacian (tets only; default: cotan)")
     s.add_argument("--allow-open", action="store_true", help="voxelise an open surface by winding numbers")
     s.add_argument("--spacing", default=None, help="voxel size of a mask, e.g. 1,1,2.5 (default: from .vti, or 1)")
     s.add_argument("--origin", default=None, help="centre of voxel (0,0,0) of a mask (default: from .vti, or 0)")
     s.add_argument("--mask-field", default=None, help="the .vti field holding the mask (default: 'mask' or the only)")
-    s.add_argument("--duplicates", choices=("error", "mean"), default="error",
+    s.add_argument("--duplicates", choices=choices_of("duplicates"), default=default_of("duplicates"),
                    help="two samples on one vertex with different values: error (default) or average")
     max_distance_arg(s, help="largest accepted snap distance of a position")
-    s.add_argument("--weights", choices=WEIGHTS, default=None,
+    s.add_argument("--weights", choices=choices_of("weights"), default=None,
                    help="surface Laplacian weights (default: cotan; uniform on a voxel mask, whose digital surface "
                         "has no triangles)")
-    s.add_argument("--solver", choices=SOLVERS, default="auto", help="surface linear solver (default: auto)")
+    s.add_argument("--solver", choices=choices_of("solver"), default=default_of("solver"),
+                   help=f"surface linear solver (default: {default_of('solver')})")
     pipeline_args(s, method_help="surface method (default: the measured default, gvf-harmonic with monotone curve "
                                      "values and --bounds samples); gp: a Matern Gaussian process over the whole "
                                      "solid (no surface pass; --fill-solver its solver), with its std")

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError, ReadError, SampleError, WriteError
+from ..surface.options import PointOptions
 from ..surface.samples import Samples, field_names
 from ..validate.samples import MAX_VALUE
 from .files import atomic_path, check_input_file, reading, suffix
@@ -113,6 +114,7 @@ def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbe
     MeshError
         Positions given for a mesh whose points are not all finite.
     """
+    PointOptions(duplicates=duplicates, max_distance=max_distance).validate()  # before the file is read
     path = Path(path)
     table = read_sample_table(path, len(V))
     return samples_from_table(path, V, table, duplicates=duplicates, max_distance=max_distance,

@@ -29,8 +29,12 @@ from .likelihood import VertexLikelihood
 from .logdet import LogdetFactors, sparse_fit_pays
 from .gpfit import fit_range, near_euclidean
 from .spde import ALPHAS, kappa_from_range, nu, range_from_kappa, sigma_from_tau
+from ..validate.constraints import Flag, Number, OneOf, check_table
 
-__all__ = ["GPOptions", "as_gp_options", "gp_condition", "intrinsic_std"]
+#: The barrier models of ``gp=``: the mesh cut along the barriers, or Bakka et al.'s thin-range faces.
+BARRIER_MODELS = ("cut", "bakka")
+
+__all__ = ["GPOptions", "BARRIER_MODELS", "as_gp_options", "gp_condition", "intrinsic_std"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -86,20 +90,16 @@ class GPOptions:
     barrier: str = "cut"
     barrier_range: float = 0.1
 
-
-def _positive(name, v, zero=False):
-    if isinstance(v, str):
-        if v != "auto":
-            raise OptionError(f"gp {name}={v!r} is not 'auto' or a number; pass one of those")
-        return v
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        x = float("nan")
-    if not (math.isfinite(x) and (x > 0 or (zero and x == 0))):
-        raise OptionError(f"gp {name}={v!r} is not a finite number {'>=' if zero else '>'} 0 or 'auto'; "
-                          f"pass one of those")
-    return x
+    #: What each option takes (:mod:`manifill.validate.constraints`), checked by :func:`as_gp_options`.
+    CONSTRAINTS = {
+        "alpha": [OneOf(*ALPHAS)], "range": [OneOf("auto"), Number(lo=0, lo_open=True)],
+        "sigma": [OneOf("auto"), Number(lo=0, lo_open=True)], "noise": [OneOf("auto"), Number(lo=0)],
+        "mean": [OneOf("constant"), Number()], "share": [Flag()], "variance": [OneOf(*VARIANCES)],
+        "samples": [Number(lo=2, integer=True)], "seed": [Number(lo=0, integer=True)],
+        "fit_samples": [Number(lo=3, integer=True)], "barrier": [OneOf(*BARRIER_MODELS)],
+        # the barrier faces' range as a fraction of the field's
+        "barrier_range": [Number(lo=0, hi=1, lo_open=True)],
+    }
 
 
 def as_gp_options(gp):
@@ -127,36 +127,13 @@ variance, samples, seed, fit_samples, barrier, barrier_range; pass those names
         o = GPOptions(**gp)
     else:
         raise OptionError(f"gp= must be a dict or a manifill.GPOptions, not {type(gp).__name__}; pass one of those")
-    if o.alpha not in ALPHAS:
-        raise OptionError(f"gp alpha={o.alpha!r} is not one of {ALPHAS}; pass alpha=1 or alpha=2")
-    if o.barrier not in ("cut", "bakka"):
-        raise OptionError(f"gp barrier={o.barrier!r} is not 'cut' or 'bakka'; pass one of those")
-    if not (isinstance(o.barrier_range, (int, float)) and 0 < o.barrier_range <= 1):
-        raise OptionError(f"gp barrier_range={o.barrier_range!r} is not a number in (0, 1] (the barrier faces' "
-                          f"range as a fraction of the field's); pass e.g. 0.1")
-    if o.variance not in VARIANCES:
-        raise OptionError(f"gp variance={o.variance!r} is not one of {', '.join(VARIANCES)}; pass one of those")
-    mean = o.mean
-    if isinstance(mean, str):
-        if mean != "constant":
-            raise OptionError(f"gp mean={mean!r} is not 'constant' or a number; pass one of those")
-    else:
-        try:
-            ok = math.isfinite(float(mean))
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise OptionError(f"gp mean={mean!r} is not a finite number; pass 'constant' or a number")
-    if not isinstance(o.share, (bool, np.bool_)):
-        raise OptionError(f"gp share={o.share!r} is not True or False; pass one of those")
-    if not isinstance(o.seed, (int, np.integer)) or isinstance(o.seed, bool) or o.seed < 0:
-        raise OptionError(f"gp seed={o.seed!r} is not an integer >= 0; pass one")
-    for name in ("samples", "fit_samples"):
-        v = getattr(o, name)
-        if not isinstance(v, (int, np.integer)) or v < (2 if name == "samples" else 3):
-            raise OptionError(f"gp {name}={v!r} is not an integer >= {2 if name == 'samples' else 3}; pass one")
-    return replace(o, range=_positive("range", o.range), sigma=_positive("sigma", o.sigma),
-                   noise=_positive("noise", o.noise, zero=True))
+    check_table(o, GPOptions.CONSTRAINTS, owner="gp ")
+    return replace(o, range=_number(o.range), sigma=_number(o.sigma), noise=_number(o.noise))
+
+
+def _number(v):
+    """``'auto'`` as it is, a number as a float."""
+    return v if isinstance(v, str) else float(v)
 
 
 def _groups(keys):

@@ -19,18 +19,37 @@ import math
 import numpy as np
 
 from ..errors import OptionError
+from ..mesh.tetmesh import WEIGHTS as FILL_WEIGHTS
 from ..validate import as_mesh, check_option
+from ..validate.constraints import Flag, Number, OneOf, check
 from .fill import AUTO_DIRECT_MAX, FILL_SOLVERS, fill_memory, tet_fill_memory
 from .tetrahedralize import check_max_volume, tet_count_on_mesh, tet_words, tetrahedralize_memory
-from .voxels import as_connectivity
+from .voxels import CONNECTIVITY, as_connectivity
 from .voxelize import grid_words, solid_voxels, voxel_grid, voxelize_memory_on_grid
 
-__all__ = ["FORMS", "TET_FILL_SOLVERS", "check_fill_solver", "reconstruct_volume_memory", "volume_estimate",
+__all__ = ["FORMS", "TET_FILL_SOLVERS", "VOLUME_CONSTRAINTS", "check_volume_options", "check_fill_solver",
+           "reconstruct_volume_memory", "volume_estimate",
            "mask_fill_estimate", "tet_mesh_fill_estimate", "n_fields"]
 
 FORMS = ("voxels", "tets")
 #: The fill solvers of a solid made of tets (by :func:`manifill.solid.tetrahedralize.tetrahedralize`).
 TET_FILL_SOLVERS = ("auto", "amg", "direct")
+
+#: What the solid's own options take (:mod:`manifill.validate.constraints`): checked on entry by
+#: :func:`manifill.reconstruct_volume` and its siblings (:func:`check_volume_options`), read by the command line,
+#: tried with a wrong value by a test. (A whole ``resolution``, and which fill solvers each form takes, are checked
+#: where they are used, with messages of their own.)
+VOLUME_CONSTRAINTS = {
+    "form": [OneOf(*FORMS)], "resolution": [Number(lo=2)], "connectivity": [OneOf(*CONNECTIVITY)],
+    "max_volume": [None, Number(lo=0, lo_open=True)], "fill_solver": [OneOf(*FILL_SOLVERS)],
+    "fill_weights": [OneOf(*FILL_WEIGHTS)], "allow_open": [Flag()],
+}
+
+
+def check_volume_options(**given):
+    """Check the solid's options given (names of :data:`VOLUME_CONSTRAINTS`) against their table."""
+    for name, value in given.items():
+        check(name, value, VOLUME_CONSTRAINTS[name])
 
 
 def check_fill_solver(fill_solver, choices=FILL_SOLVERS):

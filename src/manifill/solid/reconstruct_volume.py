@@ -45,7 +45,7 @@ from ..surface.reconstruct import reconstruct, reconstruct_surface
 from ..validate import as_mask, as_samples, as_tets, as_voxels, check_option
 from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, surface_to_points,
                        surface_vertex_of_voxels)
-from .estimates import (FORMS, TET_FILL_SOLVERS, check_fill_solver, mask_fill_estimate, n_fields,
+from .estimates import (TET_FILL_SOLVERS, check_fill_solver, check_volume_options, mask_fill_estimate, n_fields,
                         tet_mesh_fill_estimate, volume_estimate)
 from .fill import FILL_SOLVERS, VoxelFill, tet_fill
 from .gp import finish, gp_tets, gp_voxels, split_gp_options, volume_gp
@@ -183,7 +183,8 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     >>> r.values.shape, bool(np.isnan(r.values[0, 0, 0]))
     ((26, 26, 26), True)
     """
-    check_option("form", form, FORMS)
+    check_volume_options(form=form, resolution=resolution, connectivity=connectivity, max_volume=max_volume, allow_open=allow_open,
+                         fill_weights=fill_weights)
     _check_fill(form, fill_solver, fill_weights)
     if form == "tets":
         _check_form_options("tets", resolution=(resolution, 128), connectivity=(connectivity, 6),
@@ -295,6 +296,7 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_solver="auto", fill_weights
     >>> r.values.shape == (len(TV),), int(r.point_data()["sample_mask"].sum())
     (True, 41)
     """
+    check_volume_options(fill_weights=fill_weights)
     _check_fill("tets", fill_solver, fill_weights)
     gpo = split_gp_options(options.get("method"), options)
     if _solid_gp(options):  # the gp over the tets, samples anywhere
@@ -388,6 +390,7 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     True
     """
     t0 = time.perf_counter()
+    check_volume_options(connectivity=connectivity)
     _check_fill("voxels", fill_solver)
     _check_mask_options(options)
     mask = as_mask(mask)

@@ -20,6 +20,7 @@ was given, is the method registry's to say (:func:`manifill.surface.methods.regi
 """
 
 import difflib
+import os
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
@@ -28,14 +29,15 @@ from ..errors import OptionError
 from ..linalg.backends import ITERATIONS, SOLVERS
 from ..mesh.graph import DISTANCES
 from ..mesh.laplacian import WEIGHTS
-from ..validate import check_option
+from ..linalg.gp import GPOptions
+from ..validate.constraints import Flag, Kind, Number, OneOf, Pair, check_table
 from .curve_values import CURVE_VALUES
 from .fill import INITS
 from .harmonic import ON_EMPTY
 from .partition import PARTITIONS
 
 __all__ = ["Options", "FillOptions", "CheckOptions", "FitOptions", "PointOptions", "UncertaintyOptions",
-           "DUPLICATES", "UNTRUSTED", "BOUNDS_MODES", "OPTION_NAMES"]
+           "DUPLICATES", "UNTRUSTED", "BOUNDS_MODES", "OPTION_NAMES", "CONSTRAINTS"]
 
 #: What several samples on one vertex with different values do: refuse, or average.
 DUPLICATES = ("error", "mean")
@@ -43,6 +45,9 @@ DUPLICATES = ("error", "mean")
 UNTRUSTED = ("mask", "nan")
 #: How ``bounds`` are kept: the minimiser within them (an active set), or the unbounded field projected onto them.
 BOUNDS_MODES = ("exact", "project")
+
+_ARRAY = (list, tuple, np.ndarray)
+_POSITIVE = Number(lo=0, lo_open=True)
 
 
 @dataclass(frozen=True)
@@ -63,20 +68,20 @@ class FillOptions:
     neighbours: object = None  # a point cloud's nearest neighbours per point (None: mesh.pointcloud.NEIGHBOURS)
     barriers: object = None  # lines the field must not cross (surface.barriers), checked against the mesh
 
+    #: What each option takes (:mod:`manifill.validate.constraints`): read by :meth:`validate`, the CLI, a test.
+    CONSTRAINTS = {
+        "partition": [OneOf(*PARTITIONS)], "weights": [OneOf(*WEIGHTS)], "distance": [OneOf(*DISTANCES)],
+        "curve_values": [None, OneOf(*CURVE_VALUES)], "solver": [OneOf(*SOLVERS)],
+        "iteration": [OneOf(*ITERATIONS)], "init": [OneOf(*INITS)], "seed": [Number(lo=0, integer=True)],
+        "tol": [None, _POSITIVE], "maxiter": [None, Number(lo=1, integer=True)], "on_empty": [OneOf(*ON_EMPTY)],
+        # how many nearest points each point of a cloud looks at
+        "neighbours": [None, Number(lo=6, integer=True)],
+        "barriers": [None, Kind((str, os.PathLike), "a file"),
+                     Kind(_ARRAY, "a list of vertex paths, positions or per-face labels")],
+    }
+
     def validate(self):
-        if self.neighbours is not None and not (isinstance(self.neighbours, (int, np.integer))
-                                                and not isinstance(self.neighbours, bool) and self.neighbours >= 6):
-            raise OptionError(f"neighbours={self.neighbours!r} is not a whole number >= 6 (how many nearest points "
-                              f"each point of a cloud looks at); pass e.g. 16, or leave it out")
-        check_option("partition", self.partition, PARTITIONS)
-        check_option("weights", self.weights, WEIGHTS)
-        check_option("distance", self.distance, DISTANCES)
-        if self.curve_values is not None:
-            check_option("curve_values", self.curve_values, CURVE_VALUES)
-        check_option("solver", self.solver, SOLVERS)
-        check_option("iteration", self.iteration, ITERATIONS)
-        check_option("init", self.init, INITS)
-        check_option("on_empty", self.on_empty, ON_EMPTY)
+        check_table(self, self.CONSTRAINTS)
 
 
 @dataclass(frozen=True)
@@ -86,9 +91,11 @@ class CheckOptions:
     levels: object = None
     check: object = None
 
+    CONSTRAINTS = {"levels": [None, Number(lo=1, integer=True), Kind(_ARRAY, "a list of increasing levels")],
+                   "check": [None, Flag()]}
+
     def validate(self):
-        if self.check is not None and not isinstance(self.check, (bool, np.bool_)):
-            raise OptionError(f"check={self.check!r} is not True, False or None; pass one of those")
+        check_table(self, self.CONSTRAINTS)
 
 
 @dataclass(frozen=True)
@@ -101,9 +108,12 @@ class FitOptions:
     smoothing: object = None
     sample_weights: object = None
 
+    CONSTRAINTS = {"bounds": [None, OneOf("samples"), Pair()], "bounds_mode": [None, OneOf(*BOUNDS_MODES)],
+                   "smoothing": [None, OneOf("auto"), Number(lo=0)],
+                   "sample_weights": [None, Kind(_ARRAY, "an array of weights > 0, one per sample")]}
+
     def validate(self):
-        if self.bounds_mode is not None:
-            check_option("bounds_mode", self.bounds_mode, BOUNDS_MODES)
+        check_table(self, self.CONSTRAINTS)
 
     @property
     def projected(self):
@@ -123,8 +133,10 @@ class PointOptions:
     duplicates: str = "error"
     max_distance: object = None
 
+    CONSTRAINTS = {"duplicates": [OneOf(*DUPLICATES)], "max_distance": [None, _POSITIVE]}
+
     def validate(self):
-        check_option("duplicates", self.duplicates, DUPLICATES)
+        check_table(self, self.CONSTRAINTS)
 
 
 @dataclass(frozen=True)
@@ -136,17 +148,13 @@ class UncertaintyOptions:
     trust: object = None
     untrusted: str = "mask"
 
+    #: ``gp``'s own names are checked by :data:`manifill.GPOptions.CONSTRAINTS` (the method decides which it takes);
+    #: ``trust`` is a multiple of the samples' standard deviation.
+    CONSTRAINTS = {"gp": [None, Kind((dict,), "a dict of gp options"), Kind((GPOptions,), "a GPOptions")],
+                   "uncertainty": [None, Flag()], "trust": [None, _POSITIVE], "untrusted": [OneOf(*UNTRUSTED)]}
+
     def validate(self):
-        if self.untrusted not in UNTRUSTED:
-            raise OptionError(f"untrusted={self.untrusted!r} is not one of {', '.join(UNTRUSTED)}; pass one of those")
-        if self.trust is not None:
-            try:
-                t = float(self.trust)
-            except (TypeError, ValueError):
-                t = float("nan")
-            if not (np.isfinite(t) and t > 0):
-                raise OptionError(f"trust={self.trust!r} is not a number > 0 (a multiple of the samples' standard "
-                                  f"deviation); pass one")
+        check_table(self, self.CONSTRAINTS)
 
 
 #: The groups of :class:`Options` by attribute name, and each flat keyword's group.
@@ -155,6 +163,8 @@ GROUPS = {"fill": FillOptions, "step1": CheckOptions, "fit": FitOptions, "points
 OPTION_GROUP = {f.name: g for g, cls in GROUPS.items() for f in fields(cls)}
 #: Every keyword :meth:`Options.build` takes (besides ``method``).
 OPTION_NAMES = tuple(OPTION_GROUP)
+#: Every flat keyword's forms (the groups' tables in one view).
+CONSTRAINTS = {name: forms for cls in GROUPS.values() for name, forms in cls.CONSTRAINTS.items()}
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -151,7 +151,10 @@ def _check_uncertainty(method, o):
 def _check_gp(method, o, uncertainty):
     """``gp=`` is the Gaussian process's; a method with a std takes only how its variance is computed."""
     gp = o.uq.gp
-    if gp is None or method.gp_mean:
+    if gp is None:
+        return
+    if method.gp_mean:
+        as_gp_options(gp)  # every gp option against its table, before any work
         return
     if method.gives_std and uncertainty:
         given = [f for f in (gp if isinstance(gp, dict) else

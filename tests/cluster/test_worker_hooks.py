@@ -54,8 +54,8 @@ def test_a_mesh_read_twice_in_a_job_is_parsed_once_and_each_read_is_its_own_copy
     V, F = icosphere(2)
     registry.write_mesh(path, V, F)
     parsed = []
-    real = registry._read_mesh_file
-    monkeypatch.setattr(registry, "_read_mesh_file", lambda p, fmt: parsed.append(p) or real(p, fmt))
+    real = registry._read_or_points
+    monkeypatch.setattr(registry, "_read_or_points", lambda p, fmt, points: parsed.append(p) or real(p, fmt, points))
     with registry.reading_once():
         a = registry.read_mesh_file(path)
         a.V[:] = 0.0  # a caller's change does not reach the next read

@@ -9,6 +9,7 @@ import meshio
 import numpy as np
 import pytest
 
+from manifill.io.formats import find_format
 from manifill.errors import MeshError, SampleError, WriteError
 from manifill.io import (
     MESH_FORMATS,
@@ -109,7 +110,7 @@ def test_xml_formats_keep_any_printable_name(tmp_path, ext):
 
 @pytest.mark.parametrize("ext", [".ply", ".vtk"])
 def test_word_formats_rename_and_say_so(ext):
-    names = stored_names(["temp (K)", "a b", "a_b"], ext)
+    names = stored_names(["temp (K)", "a b", "a_b"], find_format("mesh", "o" + ext))
     assert names["temp (K)"] == "temp__K_"
     assert len(set(names.values())) == 3  # renamed names never collide
     assert all(set(v) <= set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") for v in names.values())

@@ -61,7 +61,7 @@ def test_point_files_are_not_meshes_unless_points_are_taken(tmp_path, name):
 
 def test_registry_lists_the_documented_formats():
     assert set(MESH_FORMATS) == {".off", ".obj", ".ply", ".stl", ".vtk", ".vtu", ".vtp", ".gii", ".xyz", ".csv"}
-    assert {e for e, f in MESH_FORMATS.items() if f.reader in ("xyz", "csv")} == {".xyz", ".csv"}  # points only
+    assert {e for e, f in MESH_FORMATS.items() if not f.cells} == {".xyz", ".csv"}  # points only
     assert set(FIELD_FORMATS) == {".ply", ".vtk", ".vtu", ".vtp"}
     assert [ext for ext, f in MESH_FORMATS.items() if not f.vertex_numbering] == [".stl"]
 

@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import OptionError, ReadError, SampleError, WriteError
 from ..io.files import atomic_path
+from ..io.formats import Format, find_format, register_format
 from ..mesh.shapes import icosphere
 from ..memory import check_fits
 from ..surface.locate import locate_points
@@ -325,6 +326,23 @@ def write_netcdf(field, path):
     return path
 
 
+def _read_csv_stations(path):
+    import pandas
+
+    return pandas.read_csv(path)
+
+
+def _read_netcdf_stations(path):
+    return _xarray().open_dataset(path)
+
+
+# stations: read(path) -> a DataFrame or Dataset of stations; write(field, path) the globe's field
+_NETCDF = register_format(Format("netCDF (CF)", "stations", (".nc",), _read_netcdf_stations, write_netcdf,
+                                 fields=True, times=True, extra="xarray", seen_by=("xarray", "netCDF4")))
+register_format(Format("CSV of stations", "stations", (".csv",), _read_csv_stations, fields=True, text=True,
+                       extra="xarray"))
+
+
 def _fields(V, F, P, values, method, std, options, snap=True):
     """``(X, S, notes)``: the fields on the vertices, ``(n, T)``, and what the summary should say (steps left
     empty, stations averaged). One Reconstructor per set of stations reporting (a station's missing values, NaN,
@@ -398,24 +416,20 @@ def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat
     ReadError, WriteError, OptionError, SampleError
         A file that cannot be read, an output that is not ``.nc``, stations or options refused.
     """
-    xr = _xarray()
+    _xarray()
     src, out = Path(stations), Path(out)
-    if out.suffix.lower() != ".nc":
+    if find_format("stations", out, writing=True) is None:
         raise WriteError(f"{out.name}: the globe's field is written as netCDF; name the output OUT.nc")
     if not src.is_file():
         raise ReadError(f"{src}: no such file; pass a CSV of stations (lon, lat, values) or a netCDF of them")
+    fmt = find_format("stations", src) or _NETCDF  # netCDF by default: its reader says what is wrong with a file
     try:
-        if src.suffix.lower() == ".csv":
-            import pandas
-
-            data = pandas.read_csv(src)
-        else:
-            data = xr.open_dataset(src)
+        data = fmt.read(src)
     except (ValueError, OSError, UnicodeDecodeError) as exc:
         raise ReadError(f"{src.name}: could not be read as stations ({str(exc).splitlines()[0][:120]}); pass a CSV "
                         f"with lon and lat columns or a netCDF with a station dimension") from None
     field = reconstruct_globe(data, var=var, grid=grid, method=method, lon=lon, lat=lat, **options)
-    write_netcdf(field, out)
+    _NETCDF.write(field, out)
     said = f" ({field.attrs['comment']})" if field.attrs.get("comment") else ""
     return f"wrote {out.name}: {field.name} on {' x '.join(f'{d} {n}' for d, n in field.sizes.items())}{said}"
 

@@ -23,13 +23,14 @@ from ..surface.barriers import renumber
 from ..surface.samples import Samples
 from ..viz.render import render_fields
 from ..viz.viewer import write_html
+from ..io.formats import written_as
 from .outputs import check_outputs
 from ..surface.methods.registry import METHODS, method_of
 
 __all__ = ["check_order", "load", "check_outputs", "write_surface", "levels", "bounds_arg", "smoothing_arg",
            "step_bar", "print_time", "pictures", "chosen_field", "surface_outputs", "check_names", "print_ranges",
            "err", "std_methods", "wants_std", "uncertainty_opts", "std_names", "print_uncertainty", "check_draws",
-           "add_draws", "VECTOR_OUTPUTS", "gradient_names", "barriers_arg", "check_barrier_numbering"]
+           "add_draws", "vector_output", "gradient_names", "barriers_arg", "check_barrier_numbering"]
 
 
 def barriers_arg(args):
@@ -217,7 +218,7 @@ def surface_outputs(args, pictures=True, extra=()):
     """-o (and --render/--html) of a surface command, checked before any work (``extra``: more -o suffixes)."""
 
     meshes = tuple(e for e, f in MESH_FORMATS.items() if f.write and f.fields)
-    outs = [("-o", args.output, meshes + VALUE_FORMATS + tuple(extra))]
+    outs = [("-o", args.output, (*meshes, *VALUE_FORMATS, *extra))]
     if pictures:
         outs += [("--render", getattr(args, "render", None), (".png",)),
                  ("--html", getattr(args, "html", None), (".html",))]
@@ -228,7 +229,7 @@ def check_names(args, S, out):
     """The field names against the output's format and manifill's masks, and --field, before the work."""
 
     check_field_names(S.names, out)
-    added = [name for name in std_names(args, S.names) + gradient_names(args, S.names, Path(out).suffix)
+    added = [name for name in std_names(args, S.names) + gradient_names(args, S.names, out)
              if name in S.names]
     if added:
         raise WriteError(f"field name {added[0]!r} is also the name of a field this run adds (a std, a draw, a "
@@ -418,15 +419,17 @@ def add_draws(args, r, names, data):
     data.update({f"{name}_draw{i + 1}": D[..., j, i] for j, name in enumerate(names) for i in range(args.draws)})
 
 
-#: Outputs that hold a vector per point (the gradient as one array); others get one column per component.
-VECTOR_OUTPUTS = (".vtu", ".vtp", ".vtk", ".vti")
+def vector_output(path):
+    """Whether the output ``path`` holds a vector per point (the gradient as one array, ``Format.vectors``);
+    others get one column per component."""
+    return getattr(written_as(path, ("mesh", "grid", "tets")), "vectors", False)
 
 
-def gradient_names(args, names, suffix):
-    """The point fields --gradient adds for ``names`` in an output of ``suffix``."""
+def gradient_names(args, names, path):
+    """The point fields --gradient adds for ``names`` in the output ``path``."""
     if not getattr(args, "gradient", False):
         return []
-    parts = [""] if suffix.lower() in VECTOR_OUTPUTS else ["_x", "_y", "_z"]
+    parts = [""] if vector_output(path) else ["_x", "_y", "_z"]
     return [f"grad_{name}{p}" for name in names for p in parts + ["_norm"]]
 
 

@@ -4,7 +4,8 @@
 from pathlib import Path
 
 from ..errors import OptionError
-from ..io import VALUE_FORMATS, write_values
+from ..io import write_values
+from ..io.formats import find_format
 from ..mesh.subdivide import check_subdivide, subdivide
 from ..report import value_columns
 from ..surface.methods.registry import configure, method_of
@@ -70,7 +71,7 @@ def run(args):
         if args.gradient:
             raise OptionError(f"--gradient writes one result's gradient, and -o {out.name} writes a time series; "
                               f"leave --gradient out, or write one result (-o OUT.vtu, .vtp, .ply or .csv)")
-        if out.suffix.lower() not in SERIES_OUTPUTS + (".npy",):
+        if find_format("series", out, writing=True) is None:
             raise OptionError(f"{Path(args.samples).name} holds a time series; write it as .xdmf, .pvd, .h5, .func.gii "
                               f"or .npy (-o OUT.xdmf)")
         return run_series(args, out, {"options": options.replace(check=None)}, exact)
@@ -98,7 +99,7 @@ def run(args):
     data = r.point_data(S.names)
     add_draws(args, r, S.names, data)
     added = {key: data[key] for key in std_names(args, S.names) if key in data}
-    grads = add_gradient(args, r, S.names, data, out.suffix)
+    grads = add_gradient(args, r, S.names, data, out)
     if grads and not method.smooth_gradient and not method.delegates:
         kinks = "samples and curves" if method.partitions else "samples"
         print(f"note: {r.report.get('method', options.method)} gives a field with kinks at its {kinks}, so its "
@@ -118,16 +119,16 @@ def _write(args, out, V, F, X, S, data, added):
     """Write the result as the output's format asks (subdivided first with --subdivide)."""
     if args.subdivide:
         V2, F2, X2 = subdivide(V, F, X, levels=args.subdivide)
-        if out.suffix.lower() in VALUE_FORMATS:
+        if find_format("values", out, writing=True) is not None:
             write_values(out, X2, names=S.names)
         else:
             write_surface(out, V2, F2, {name: X2[:, j] for j, name in enumerate(S.names)})
         print(f"subdivided {args.subdivide} time(s): {len(V2):,} vertices, {len(F2):,} faces (fields carried along; "
               f"the masks{' and the std' if added else ''} are not written)")
-    elif out.suffix.lower() in (".csv", ".gii") and added:  # the std and trusted columns (arrays) after the values
+    elif getattr(find_format("values", out, writing=True), "fields", False) and added:  # std, trusted: columns
         columns = list(S.names) + list(added)
         write_values(out, value_columns(data, columns), names=columns)
-    elif out.suffix.lower() in VALUE_FORMATS:
+    elif find_format("values", out, writing=True) is not None:
         write_values(out, X, names=S.names)
         if added:
             print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .csv or "
@@ -195,7 +196,7 @@ def _summary(args, r, V, S):
 
 
 def _fill_line(args, rep):
-    h = rep["harmonic"]
+    h = rep["fill"]
     its = h.get("iterations")
     m = rep["method"]
     what = "steps 5-6: harmonic fill" if method_of(m).partitions else f"{m} fill (samples fixed)"

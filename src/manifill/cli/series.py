@@ -17,7 +17,8 @@ from pathlib import Path
 from ..errors import OptionError
 from ..io import read_mesh_file
 from ..io.distributed import dask_client
-from ..io.series import TIME_COLUMNS, read_series
+from ..io.formats import FormatView, find_format
+from ..io.series import TIME_COLUMNS, read_series, series_only
 from ..io.stream import chunk_size, reconstruct_series
 from ..progress import StepBar
 from .common import check_barrier_numbering, check_order, print_time
@@ -25,19 +26,18 @@ from .options import check_workers
 
 __all__ = ["SERIES_OUTPUTS", "is_series", "run_series"]
 
-#: Outputs that make ``reconstruct`` write a time series (``.npy`` too, when the samples are one).
-SERIES_OUTPUTS = (".xdmf", ".pvd", ".h5", ".hdf5", ".gii")
-#: Outputs that make the samples a series whatever they hold (a .gii holds a result's fields or a series' steps).
-SERIES_ONLY = (".xdmf", ".pvd", ".h5", ".hdf5")
+#: Outputs that make ``reconstruct`` write a time series (``.npy`` and ``.gii`` too, when the samples are one).
+SERIES_OUTPUTS = FormatView("series", writing=True)
 
 
 def is_series(samples, out, chunk=None):
     """Whether ``reconstruct`` reads ``samples`` as a time series: a series output, ``--chunk``, a folder or a
     glob pattern of per-time files, an NPZ with ``times``, or a CSV whose first value column is ``time``."""
     p = Path(samples)
-    if Path(out).suffix.lower() in SERIES_ONLY or p.is_dir() or chunk is not None:
+    if series_only(out) or p.is_dir() or chunk is not None:
         return True
-    if p.suffix.lower() == ".npz" and p.is_file():
+    fmt = find_format("samples", p)
+    if fmt is not None and fmt.times and p.is_file():  # a NumPy archive with its 'times'?
         try:
             with zipfile.ZipFile(p) as z:
                 return "times.npy" in z.namelist()
@@ -45,7 +45,7 @@ def is_series(samples, out, chunk=None):
             return False  # the reader says what is wrong with it
     if not p.exists() and any(c in str(samples) for c in "*?["):
         return bool(glob.glob(str(samples)))
-    if p.suffix.lower() == ".csv" and p.is_file():
+    if fmt is not None and fmt.text and p.is_file():
         with open(p, encoding="utf-8", errors="replace") as fh:
             head = [h.strip().lower() for h in fh.readline().split(",")]
         first = 1 if head and head[0] in ("vertex", "idx", "index", "vertex_id", "id") else 3

@@ -13,6 +13,7 @@ from ..surface.methods.registry import method_of
 from ..viz.render import render, render_slices
 from .common import (add_draws, check_draws, check_names, check_outputs, chosen_field, levels, print_time,
                      print_uncertainty, std_names, step_bar, uncertainty_opts)
+from ..io.formats import find_format
 from .gradients import add_gradient
 from ..solid.estimates import VOLUME_CONSTRAINTS
 from ..validate.constraints import choices
@@ -85,7 +86,7 @@ def _triple(text, what):
 def run(args):
     """``manifill volume MESH SAMPLES -o OUT.vti|OUT.vtu``."""
     src = Path(args.mesh).suffix.lower()
-    if src in GRID_FORMATS + tuple(TET_FORMATS) and not Path(args.mesh).is_file():
+    if (src in GRID_FORMATS or src in TET_FORMATS) and not Path(args.mesh).is_file():
         raise ReadError(f"{args.mesh}: no such file")  # before its kind (and the output's) is guessed from it
     kind = "mask" if src in GRID_FORMATS else ("tets" if src in TET_FORMATS and has_tets(args.mesh) else "surface")
     form = "voxels" if kind == "mask" else ("tets" if kind == "tets" else args.form)
@@ -128,7 +129,7 @@ def _surface_options(args, bar, std_opts):
 def _check_samples(args, S):
     """What the samples' names and count allow for the output, before the work."""
     check_names(args, S, args.output)
-    if Path(args.output).suffix.lower() == ".npy" and len(S.names) > 1:
+    if not getattr(find_format("grid", args.output, writing=True), "fields", True) and len(S.names) > 1:
         raise WriteError(f"{Path(args.output).name}: .npy holds one field but the samples have {len(S.names)} "
                          f"({', '.join(S.names)}); write .vti")
 
@@ -174,12 +175,13 @@ def _volume_write(args, out, ext, r, S, form):
     X = r.fields()
     data = r.point_data(S.names)
     add_draws(args, r, S.names, data)
-    grads = add_gradient(args, r, S.names, data, ext)
+    grads = add_gradient(args, r, S.names, data, args.output)
     if form == "voxels":
         # a .npy holds the one field alone
-        write_vti(out, data if ext == ".vti" else {S.names[0]: X[..., 0]}, spacing=r.spacing, origin=r.origin)
+        named = find_format("grid", out, writing=True).fields
+        write_vti(out, data if named else {S.names[0]: X[..., 0]}, spacing=r.spacing, origin=r.origin)
         added = [k for k in std_names(args, S.names) if k in data] + grads
-        if ext != ".vti" and added:
+        if not named and added:
             print(f"note: {out.name} holds the values alone; {', '.join(added)} are not written (write .vti for "
                   f"them)")
         spacing = [round(float(v), 6) for v in r.spacing]

@@ -49,6 +49,7 @@ from pathlib import Path
 
 from ..cli.main import build_parser
 from ..errors import OptionError, ReadError
+from ..io.formats import Format, FormatView, find_format, register_format
 from .readers import FIELDS, REQUIRED, csv_records, read_text, toml_records
 
 __all__ = ["Job", "JOB_COMMANDS", "MANIFEST_FORMATS", "FIELDS", "read_manifest", "jobs_from"]
@@ -56,7 +57,15 @@ __all__ = ["Job", "JOB_COMMANDS", "MANIFEST_FORMATS", "FIELDS", "read_manifest",
 #: The commands a job may run.
 JOB_COMMANDS = ("reconstruct", "volume")
 #: The manifest formats, by extension.
-MANIFEST_FORMATS = (".csv", ".toml")
+def _toml_records(text, path, known):
+    return toml_records(text, path)
+
+
+# manifest: read(text, path, option names) -> [(record, where)]
+register_format(Format("CSV of jobs", "manifest", (".csv",), csv_records, text=True))
+register_format(Format("TOML of jobs", "manifest", (".toml",), _toml_records))
+#: The formats of a batch's manifest (a view of :mod:`manifill.io.formats`' registry).
+MANIFEST_FORMATS = FormatView("manifest")
 _NEGATIVE = re.compile(r"^-\d+$|^-\d*\.\d+$")  # what argparse reads as a negative number, not a flag
 _TRUE, _FALSE = ("true", "yes", "1"), ("false", "no", "0")
 
@@ -124,8 +133,8 @@ class Job:
         """
         ns = _parse(self.command, self.argv()[1:], f"job {self.id!r}")
         out = Path(ns.output)
-        paths = [out] + {".pvd": [out.with_name(out.stem)], ".xdmf": [out.with_name(out.stem + ".h5")]}.get(
-            out.suffix.lower(), [])
+        made = getattr(find_format("series", out, writing=True), "beside", ())  # .xdmf's .h5, .pvd's folder
+        paths = [out] + [out.with_name(name.format(stem=out.stem)) for name in made]
         return tuple(paths + [Path(getattr(ns, d)) for d in _spec(self.command).outputs if getattr(ns, d, None)])
 
 
@@ -370,13 +379,14 @@ def read_manifest(path):
         An unknown command or option; a command line the command refuses.
     """
     path = Path(path)
-    ext = path.suffix.lower()
-    if ext not in MANIFEST_FORMATS:
+    fmt = find_format("manifest", path)
+    if fmt is None:
+        ext = path.suffix.lower()
         raise ReadError(f"{path}: a manifest is .csv or .toml, not {ext or 'a file without extension'}; write one "
                         f"of those")
     text = read_text(path)
     known = {n for c in JOB_COMMANDS for n in _option_names(c)}
-    records = csv_records(text, path, known) if ext == ".csv" else toml_records(text, path)
+    records = fmt.read(text, path, known)
     if not records:
         raise ReadError(f"{path}: no jobs; add one row (CSV) or [[job]] table (TOML) per job")
     base = path.resolve().parent

@@ -31,6 +31,8 @@ from ..io.distributed import need_distributed as need
 from ..io.files import KILL_ONCE_ENV, atomic_path, remove_temporaries
 from ..io.registry import reading_once
 from ..io.samples import read_sample_table
+from ..io.formats import find_format
+from ..io.series import series_only
 from ..io.stream import chunk_size
 from ..memory import LIMIT_ENV, human
 from .hashing import job_hash
@@ -48,7 +50,6 @@ BYTES_PER_VALUE = 32
 #: A local worker's own memory before and between jobs: the interpreter, Dask, NumPy, SciPy and manifill (measured:
 #: 120 MB idle, up to 190 MB after small jobs). A memory limit below it and a job's estimate refuses the job.
 WORKER_BYTES = 200 * 2**20
-_SERIES = (".xdmf", ".pvd", ".h5", ".hdf5")
 _SAMPLE_SECONDS = 0.02
 #: The summary is rewritten at most this often while jobs end (and always after the last one).
 SUMMARY_SECONDS = 1.0
@@ -328,10 +329,11 @@ def job_memory(job):
     n = len(read_mesh_file(job.mesh).V)
     samples = Path(job.samples)
     p = 1
-    if samples.is_file() and samples.suffix.lower() in (".csv", ".npz", ".npy"):
+    fmt = find_format("samples", samples)
+    if samples.is_file() and fmt is not None and fmt.extra is None:  # a table read without any extra
         tab = read_sample_table(samples, n)
         p = max(1, tab.table.shape[1] - (1 if tab.kind == "vertex" else 3))
-    if Path(job.output).suffix.lower() in _SERIES:
+    if series_only(job.output):
         p = min(p, chunk_size(n, p))
     return n * (BYTES_PER_VERTEX + BYTES_PER_VALUE * p)
 

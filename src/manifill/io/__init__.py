@@ -45,19 +45,26 @@ Examples
 
 from .field_names import (BOUNDARY_MASK, CURVE_MASK, PATCH_LABEL, RESERVED_NAMES, SAMPLE_MASK, check_field_names,
                           stored_names)
+from ..deprecation import renamed
 from .files import atomic_path
+from .formats import KINDS, Format, find_format, formats_of, register_format
 from .points import BARRIER_FORMATS, read_barriers
-from .registry import (MESH_FORMATS, POINT_FORMATS, MeshFile, MeshFormat, format_note, read_mesh, read_mesh_file,
-                       write_cells, write_mesh)
+from .registry import (MESH_FORMATS, POINT_FORMATS, MeshFile, format_note, read_mesh, read_mesh_file, write_cells,
+                       write_mesh)
 from .samples import SAMPLE_FORMATS, VALUE_FORMATS, read_samples, write_values
 from .series import SERIES_FORMATS, SampleSeries, read_series, read_series_values
 from .series_write import SeriesWriter, write_series
 from .solids import GRID_FORMATS, TET_FORMATS, has_tets, read_mask, read_tets, read_vti, write_tets, write_vti
 from .results import save_result
 
-__all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFormat", "MeshFile", "read_mesh", "read_mesh_file", "write_mesh",
+__all__ = ["KINDS", "Format", "find_format", "formats_of", "register_format", "MESH_FORMATS", "POINT_FORMATS",
+           "MeshFile", "read_mesh", "read_mesh_file", "write_mesh",
            "write_cells", "BARRIER_FORMATS", "read_barriers", "format_note", "SAMPLE_MASK", "CURVE_MASK",
            "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES", "check_field_names", "stored_names", "SAMPLE_FORMATS",
            "VALUE_FORMATS", "read_samples", "write_values", "save_result", "TET_FORMATS", "GRID_FORMATS", "has_tets",
            "read_tets", "write_tets", "read_vti", "write_vti", "read_mask", "atomic_path", "SERIES_FORMATS",
            "SampleSeries", "read_series", "read_series_values", "SeriesWriter", "write_series"]
+
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`): one class for the formats
+#: of every kind.
+__getattr__ = renamed(__name__, {"MeshFormat": "manifill.io.formats:Format"})

@@ -13,6 +13,7 @@ import re
 from pathlib import Path
 
 from ..errors import WriteError
+from .formats import find_format
 from ..results import BOUNDARY_MASK, CURVE_MASK, PATCH_LABEL, RESERVED_NAMES, SAMPLE_MASK
 
 __all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "RESERVED_NAMES", "check_field_names",
@@ -40,6 +41,8 @@ def check_field_names(names, path=None, *, masks=True):
         says how to rename it.
     """
     where = f"{Path(path).name}: " if path is not None else ""
+    fmt = None if path is None else find_format("values", path, writing=True)
+    text = fmt is not None and fmt.text
     for name in names:
         name = str(name)
         if not name.strip():
@@ -47,7 +50,7 @@ def check_field_names(names, path=None, *, masks=True):
         if _CONTROL.search(name):
             raise WriteError(f"{where}field name {name!r} holds a line break or control character, which no mesh "
                              f"format can store; rename the value column")
-        if path is not None and Path(path).suffix.lower() == ".csv" and ("," in name or '"' in name):
+        if text and ("," in name or '"' in name):
             raise WriteError(f"{where}field name {name!r} holds a comma or quote, which a CSV header cannot hold; "
                              f"rename the value column or write .npy")
         if masks and name in RESERVED_NAMES:
@@ -55,18 +58,18 @@ def check_field_names(names, path=None, *, masks=True):
                              f"value column")
 
 
-def stored_names(names, ext):
-    """The name each field gets in a file of extension ``ext``.
+def stored_names(names, fmt):
+    """The name each field gets in a file of the format ``fmt`` (a :class:`manifill.io.formats.Format`).
 
-    VTU, VTP and VTI keep any text; PLY, legacy VTK and Gmsh hold plain ASCII
-    words, so there every other character becomes ``_`` (and PLY's ``x``, ``y``, ``z``, a
-    leading digit or a repeated name get a ``field_`` prefix).
+    VTU, VTP and VTI keep any text; PLY, legacy VTK and Gmsh hold plain ASCII words (``fmt.plain_names``), so
+    there every other character becomes ``_``; a name the format's reader would take for something else
+    (``fmt.reserved``: PLY's ``x``, ``y``, ``z`` and a leading digit; VTK's ``metadata`` lines) or a repeated one
+    gets a ``field_`` prefix.
 
     Parameters
     ----------
     names : iterable of str
-    ext : str
-        The extension, with its dot.
+    fmt : manifill.io.formats.Format
 
     Returns
     -------
@@ -79,22 +82,21 @@ def stored_names(names, ext):
 
     Examples
     --------
-    >>> stored_names(["temp (K)", "x"], ".ply")
+    >>> from manifill.io.formats import find_format
+    >>> stored_names(["temp (K)", "x"], find_format("mesh", "a.ply"))
     {'temp (K)': 'temp__K_', 'x': 'field_x'}
-    >>> stored_names(["temp (K)"], ".vtu")
+    >>> stored_names(["temp (K)"], find_format("mesh", "a.vtu"))
     {'temp (K)': 'temp (K)'}
     """
     names = [str(n) for n in names]
     check_field_names(names, masks=False)
-    if ext not in (".ply", ".vtk", ".msh"):
+    if not fmt.plain_names:
         return {n: n for n in names}
     out, taken = {}, set()
     for name in names:
         key = re.sub(r"[^0-9A-Za-z_]", "_", name)
-        if ext == ".ply" and (key in ("x", "y", "z") or key[0].isdigit()):
+        if fmt.reserved is not None and fmt.reserved(key):
             key = f"field_{key}"
-        if ext == ".vtk" and (key.lower().startswith("metadata") or key == "NULL_ARRAY"):
-            key = f"field_{key}"  # VTK's reader takes such a line for a section of its own
         while key in taken:
             key = f"field_{key}"
         taken.add(key)

@@ -292,7 +292,10 @@ def remove_temporaries(output, *, dead_only=True):
     beside it (and, for a ``.pvd`` series, of its folder ``<stem>/``): with ``dead_only``, only those of processes
     no longer running here (a live writer's are left alone). Returns what was removed."""
     output = Path(output)
-    names = [output.name] + ([output.stem] if output.suffix.lower() == ".pvd" else [])
+    from .formats import find_format
+
+    folder = getattr(find_format("series", output, writing=True), "folder", False)
+    names = [output.name] + ([output.stem] if folder else [])
     patterns = [re.compile(r"^\." + re.escape(name) + r"\.(\d+)\.\w+") for name in names]
     try:
         entries = list(output.parent.iterdir())

@@ -25,7 +25,7 @@ def read_meshio(path, fmt):
     ----------
     path : Path
         A ``.vtu``, ``.ply``, ``.off``, ``.obj`` or ``.stl`` file.
-    fmt : manifill.io.registry.MeshFormat
+    fmt : manifill.io.formats.Format
         Its format (for the messages).
 
     Returns
@@ -42,15 +42,11 @@ def read_meshio(path, fmt):
     """
     import meshio
 
-    ext = path.suffix.lower()
-    if ext == ".off":
-        _check_off_header(path)
-    elif ext == ".ply":
-        _check_ply_header(path)
-    elif ext == ".stl":
-        _check_stl(path)
+    check = {"off": _check_off_header, "ply": _check_ply_header, "stl": _check_stl}.get(fmt.meshio)
+    if check is not None:  # meshio's own errors on these are tracebacks or exits
+        check(path)
     with reading(path, f"{fmt.name} mesh"):
-        mesh = getattr(meshio, ext[1:]).read(str(path))  # not meshio.read: it sys.exit()s on bad files
+        mesh = getattr(meshio, fmt.meshio).read(str(path))  # not meshio.read: it sys.exit()s on bad files
         faces = []
         for block in mesh.cells:
             data = np.asarray(block.data)

@@ -22,7 +22,8 @@ from ..errors import ReadError
 from .files import check_count, reading
 
 __all__ = ["FREESURFER_SURFACE", "FREESURFER_MORPH", "sniff", "read_gifti", "read_freesurfer_surface",
-           "read_vertex_data", "read_label"]
+           "read_vertex_data", "read_gifti_data", "read_mgh_data", "read_morph_data",
+           "read_label"]
 
 #: magic numbers (first 3 bytes, big-endian) of FreeSurfer triangle surfaces and of new-style morphometry files
 FREESURFER_SURFACE = b"\xff\xff\xfe"
@@ -184,7 +185,7 @@ def read_freesurfer_surface(path):
 
 
 def read_vertex_data(path, n):
-    """Per-vertex values of a GIfTI, FreeSurfer morphometry or MGH/MGZ file.
+    """Per-vertex values of a GIfTI, FreeSurfer morphometry or MGH/MGZ file (its reader from the registry of formats).
 
     Parameters
     ----------
@@ -205,51 +206,77 @@ def read_vertex_data(path, n):
     ImportError
         Without nibabel (the ``[neuro]`` extra).
     """
+    from .formats import find_format
+
+    fmt = find_format("values", path)
+    if fmt is None or fmt.read is None:  # no telling suffix: a FreeSurfer morphometry file by its first bytes
+        return read_morph_data(path, n)
+    return fmt.read(path, n)
+
+
+def read_gifti_data(path, n):
+    """Per-vertex values of a GIfTI file (``.func.gii``, ``.shape.gii``): one column per data array (as
+    :func:`read_vertex_data`)."""
+    _nibabel()
+    path = Path(path)
+    name = path.name
+    cols, names = [], []
+    for j, (intent, nm, a) in enumerate(_gifti_arrays(path)):
+        if intent in ("pointset", "triangle"):
+            continue
+        a = np.asarray(a)
+        a = a[:, None] if a.ndim == 1 else a
+        n = len(a) if n is None else n  # a series read on its own: its first array's length
+        if a.ndim != 2 or len(a) != n:
+            raise ReadError(f"{name}: data array {j} has shape {np.shape(a)} but the mesh has {n:,} vertices; "
+                            f"pass the surface this data belongs to")
+        cols.append(a)
+        stem = nm or (path.name.split(".")[0] if len(cols) == 1 else f"array{j}")
+        names += [stem] if a.shape[1] == 1 else [f"{stem}_{i}" for i in range(a.shape[1])]
+    if not cols:
+        raise ReadError(f"{name}: a GIfTI file without per-vertex data arrays; pass a .func.gii or .shape.gii")
+    return _real(np.column_stack(cols), name), names
+
+
+def read_mgh_data(path, n, compressed=False):
+    """Per-vertex values of an MGH file (MGZ: ``compressed``), ``(n, 1, 1[, t])``: one column per time point (as
+    :func:`read_vertex_data`)."""
     nib = _nibabel()
     path = Path(path)
     name = path.name
-    ext = "".join(path.suffixes[-2:]).lower() if path.suffix.lower() == ".gz" else path.suffix.lower()
-    if ext == ".gii":
-        cols, names = [], []
-        for j, (intent, nm, a) in enumerate(_gifti_arrays(path)):
-            if intent in ("pointset", "triangle"):
-                continue
-            a = np.asarray(a)
-            a = a[:, None] if a.ndim == 1 else a
-            n = len(a) if n is None else n  # a series read on its own: its first array's length
-            if a.ndim != 2 or len(a) != n:
-                raise ReadError(f"{name}: data array {j} has shape {np.shape(a)} but the mesh has {n:,} vertices; "
-                                f"pass the surface this data belongs to")
-            cols.append(a)
-            stem = nm or (path.name.split(".")[0] if len(cols) == 1 else f"array{j}")
-            names += [stem] if a.shape[1] == 1 else [f"{stem}_{i}" for i in range(a.shape[1])]
-        if not cols:
-            raise ReadError(f"{name}: a GIfTI file without per-vertex data arrays; pass a .func.gii or .shape.gii")
-        values = np.column_stack(cols)
-    elif ext in (".mgh", ".mgz", ".mgh.gz"):
-        with reading(path, "MGH/MGZ file"):
-            _check_mgh(path, compressed=ext != ".mgh")
-            values = np.asarray(nib.load(str(path)).get_fdata())
-        if values.ndim < 1 or values.shape[0] != n or int(np.prod(values.shape[1:3])) != 1:
-            raise ReadError(f"{name}: data of shape {values.shape}, not ({n:,}, 1, 1[, t]) for the mesh's {n:,} "
-                            f"vertices; pass the surface this data belongs to")
-        values = values.reshape(n, -1)
-        names = [path.name.split(".")[0] + ("" if values.shape[1] == 1 else f"_{j}") for j in range(values.shape[1])]
-    else:
-        with reading(path, "FreeSurfer morphometry file"):
-            with open(path, "rb") as fh:
-                head = fh.read(15)
-            if head[:3] == FREESURFER_MORPH and len(head) == 15:
-                check_count(int(np.frombuffer(head[3:7], ">i4")[0]), path, "values", bytes_each=4, start=15)
-            values = np.asarray(nib.freesurfer.read_morph_data(str(path)), dtype=np.float64)
-        if values.ndim != 1 or len(values) != n:
-            raise ReadError(f"{name}: {values.size:,} values but the mesh has {n:,} vertices; pass the surface "
-                            f"this data belongs to")
-        values = values[:, None]
-        names = [path.suffix[1:] if path.suffix.lower() in MORPH_SUFFIXES else "value"]
+    with reading(path, "MGH/MGZ file"):
+        _check_mgh(path, compressed=compressed)
+        values = np.asarray(nib.load(str(path)).get_fdata())
+    if values.ndim < 1 or values.shape[0] != n or int(np.prod(values.shape[1:3])) != 1:
+        raise ReadError(f"{name}: data of shape {values.shape}, not ({n:,}, 1, 1[, t]) for the mesh's {n:,} "
+                        f"vertices; pass the surface this data belongs to")
+    values = values.reshape(n, -1)
+    names = [path.name.split(".")[0] + ("" if values.shape[1] == 1 else f"_{j}") for j in range(values.shape[1])]
+    return _real(values, name), names
+
+
+def read_morph_data(path, n, named=False):
+    """Per-vertex values of a FreeSurfer morphometry file (``lh.thickness``): one column named after its suffix
+    (``thickness``), or ``value`` where the suffix is not a measure's (as :func:`read_vertex_data`)."""
+    nib = _nibabel()
+    path = Path(path)
+    name = path.name
+    with reading(path, "FreeSurfer morphometry file"):
+        with open(path, "rb") as fh:
+            head = fh.read(15)
+        if head[:3] == FREESURFER_MORPH and len(head) == 15:
+            check_count(int(np.frombuffer(head[3:7], ">i4")[0]), path, "values", bytes_each=4, start=15)
+        values = np.asarray(nib.freesurfer.read_morph_data(str(path)), dtype=np.float64)
+    if values.ndim != 1 or len(values) != n:
+        raise ReadError(f"{name}: {values.size:,} values but the mesh has {n:,} vertices; pass the surface "
+                        f"this data belongs to")
+    return _real(values[:, None], name), [path.suffix[1:] if named else "value"]
+
+
+def _real(values, name):
     if np.iscomplexobj(values) or not np.issubdtype(values.dtype, np.number):
         raise ReadError(f"{name}: the data is {values.dtype}, not real numbers; pass real-valued data")
-    return np.asarray(values, dtype=np.float64), names
+    return np.asarray(values, dtype=np.float64)
 
 
 #: bytes per value of the MGH data types nibabel reads (uchar, int, float, short, ushort)

@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ReadError
+from .formats import Format, FormatView, find_format, register_format, suffix_list
 from .samples import load_npy
 
 __all__ = ["read_xyz", "read_csv_points", "read_barriers", "BARRIER_FORMATS"]
 
 #: What ``--barriers`` reads.
-BARRIER_FORMATS = (".txt", ".csv", ".npy")
 
 _SPLIT = re.compile(r"[\s,;]+")
 
@@ -157,22 +157,37 @@ def read_barriers(path):
     [[0, 1, 2, 3], [10, 11]]
     """
     path = Path(path)
-    name, ext = path.name, path.suffix.lower()
-    if ext not in BARRIER_FORMATS:
-        raise ReadError(f"{name}: barriers are read from {', '.join(BARRIER_FORMATS)} files, not '{ext or '(none)'}'; "
-                        f"write one polyline of vertex indices per line (.txt)")
-    if ext == ".npy":
-        labels = load_npy(path, "NPY file of per-face labels")
-        if labels.ndim != 1 or labels.dtype.kind not in "iub":
-            raise ReadError(f"{name}: holds {labels.dtype} of shape {labels.shape}; barriers as .npy are per-face "
-                            f"integer labels, one per face")
-        return labels.astype(np.int64)
+    fmt = find_format("barriers", path)
+    if fmt is None:
+        ext = path.suffix.lower()
+        raise ReadError(f"{path.name}: barriers are read from {suffix_list('barriers')} files, not "
+                        f"'{ext or '(none)'}'; write one polyline of vertex indices per line (.txt)")
+    return fmt.read(path)
+
+
+def _read_face_labels(path):
+    labels = load_npy(path, "NPY file of per-face labels")
+    if labels.ndim != 1 or labels.dtype.kind not in "iub":
+        raise ReadError(f"{path.name}: holds {labels.dtype} of shape {labels.shape}; barriers as .npy are per-face "
+                        f"integer labels, one per face")
+    return labels.astype(np.int64)
+
+
+def _read_barrier_points(path):
+    """A CSV of ``x,y,z[,barrier]`` points (snapped later), else vertex paths as in a .txt."""
     lines = _text_lines(path)
     first = next((ln for ln in lines if ln.split("#", 1)[0].strip()), "")
-    if ext == ".csv" and {"x", "y", "z"} <= {c.strip().lower() for c in first.split(",")}:
+    if {"x", "y", "z"} <= {c.strip().lower() for c in first.split(",")}:
         P, fields = read_csv_points(path)
         which = fields.get(next((k for k in fields if k.strip().lower() == "barrier"), None), np.zeros(len(P)))
         return [P[which == b] for b in np.unique(which)]
+    return _read_vertex_paths(path, lines)
+
+
+def _read_vertex_paths(path, lines=None):
+    """One polyline of vertex indices per line (``#`` starts a comment)."""
+    name = path.name
+    lines = _text_lines(path) if lines is None else lines
     paths = []
     for lineno, line in enumerate(lines, start=1):
         text = line.split("#", 1)[0].strip()
@@ -188,3 +203,15 @@ def read_barriers(path):
     if not paths:
         raise ReadError(f"{name}: no barrier; write one polyline of vertex indices per line")
     return paths
+
+
+# barriers: read(path) -> a list of vertex paths or of point arrays, or per-face labels
+for _fmt in (
+    Format("text of vertex paths", "barriers", (".txt",), _read_vertex_paths),
+    Format("CSV of points or vertex paths", "barriers", (".csv",), _read_barrier_points, text=True),
+    Format("NumPy per-face labels", "barriers", (".npy",), _read_face_labels),
+):
+    register_format(_fmt)
+
+#: The formats barriers are read from (a view of :mod:`manifill.io.formats`' registry).
+BARRIER_FORMATS = FormatView("barriers")

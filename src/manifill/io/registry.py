@@ -28,6 +28,7 @@ from ..mesh.objects import mesh_arrays
 from ..validate import as_mesh, as_vertices, is_mesh_object
 from .field_names import stored_names
 from .files import PointsOnly, check_input_file, no_triangles, reading
+from .formats import Format, FormatView, find_format, register_format, suffix_list
 from .meshio_files import read_meshio, write_meshio
 from .neuro import read_freesurfer_surface, read_gifti, sniff
 from .points import read_csv_points, read_xyz
@@ -36,59 +37,114 @@ from .vtklegacy_write import write_legacy
 from .vtkxml_read import read_polydata, read_unstructured
 from .vtkxml_write import write_polydata, write_unstructured
 
-__all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFormat", "MeshFile", "FREESURFER", "mesh_format", "read_mesh",
+__all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFile", "FREESURFER", "mesh_format", "read_mesh",
            "read_mesh_file", "reading_once", "check_cells", "write_mesh", "write_cells", "format_note"]
 
 
 
-@dataclass(frozen=True)
-class MeshFormat:
-    """One mesh format: how it is read and written, and what it keeps.
-
-    Attributes
-    ----------
-    name : str
-        Its usual name.
-    reader : str
-        Which reader parses it.
-    write : bool
-        manifill writes it.
-    fields : bool
-        It holds named per-vertex fields.
-    seen_by : tuple of str
-        Common readers that show those fields (``meshio``, ``pyvista``: VTK and
-        ParaView read what pyvista reads).
-    vertex_numbering : bool
-        Reading keeps the file's vertex numbers (samples may refer to them).
-    extra : str or None
-        The extra it needs (``neuro``: nibabel).
-    """
-
-    name: str
-    reader: str
-    write: bool
-    fields: bool
-    seen_by: tuple = ()
-    vertex_numbering: bool = True
-    extra: str = None
+def _read_meshio(path, fmt):
+    return read_meshio(path, fmt)
 
 
-MESH_FORMATS = {
-    ".vtu": MeshFormat("VTU", "vtu", True, True, ("meshio", "pyvista")),
-    ".vtp": MeshFormat("VTP", "vtkxml", True, True, ("pyvista",)),
-    ".vtk": MeshFormat("legacy VTK", "legacy", True, True, ("meshio", "pyvista")),
-    ".ply": MeshFormat("PLY", "meshio", True, True, ("meshio",)),
-    ".off": MeshFormat("OFF", "meshio", True, False),
-    ".obj": MeshFormat("OBJ", "meshio", True, False),
-    ".stl": MeshFormat("STL", "meshio", True, False, vertex_numbering=False),
-    ".gii": MeshFormat("GIfTI", "gifti", False, True, ("nibabel",), extra="neuro"),
-    ".xyz": MeshFormat("XYZ points", "xyz", False, False),
-    ".csv": MeshFormat("CSV points", "csv", False, False),
-}
-#: The formats a point cloud (points, no faces) is written as, one vertex cell per point (.csv: the values).
-POINT_FORMATS = (".vtp", ".vtu", ".vtk", ".ply")
-#: FreeSurfer triangle surfaces, recognised by their magic number
-FREESURFER = MeshFormat("FreeSurfer surface", "freesurfer", False, False, extra="neuro")
+def _read_vtp(path, fmt):
+    return read_polydata(path)
+
+
+def _read_vtu(path, fmt):
+    return read_unstructured(path)
+
+
+def _read_legacy(path, fmt):
+    V, cells, point_data = read_legacy(path)
+    F = cells.get("triangle")
+    if F is None or len(F) == 0:
+        kinds = sorted(k for k, c in cells.items() if len(c))
+        no_triangles(path, kinds, None if "tetra" in kinds else V, point_data)
+    return V, F, point_data
+
+
+def _read_gifti(path, fmt):
+    return read_gifti(path)
+
+
+def _read_freesurfer(path, fmt):
+    V, F = read_freesurfer_surface(path)
+    return V, F, {}
+
+
+def _points_reader(read):
+    """A reader of points alone (``.xyz``, ``.csv``): ``F`` None, and refused where a mesh is asked."""
+
+    def read_points(path, fmt):
+        with reading(path, fmt.name):
+            P, point_data = read(path)
+        return P, None, point_data
+
+    return read_points
+
+
+def _write_vtp(path, V, kind, C, data, fmt):
+    write_polydata(path, V, None if kind == "vertex" else C, data)
+
+
+def _write_vtu(path, V, kind, C, data, fmt):
+    write_unstructured(path, V, C, data)
+
+
+def _write_legacy(path, V, kind, C, data, fmt):
+    write_legacy(path, V, kind, C, data)
+
+
+def _write_meshio(path, V, kind, C, data, fmt):
+    cells = [] if kind == "vertex" else [(kind, C.astype(np.int32))]  # a cloud's PLY: its vertices alone
+    write_meshio(path, V, cells, data, fmt.meshio)
+
+
+def ply_reserved(name):
+    """PLY's reader takes ``x``, ``y``, ``z`` for the positions, and a name must not start with a digit."""
+    return name in ("x", "y", "z") or name[0].isdigit()
+
+
+def vtk_reserved(name):
+    """Legacy VTK's reader takes a line starting ``METADATA`` (or ``NULL_ARRAY``) for a section of its own."""
+    return name.lower().startswith("metadata") or name == "NULL_ARRAY"
+
+
+#: The writers of cells (triangles, tetrahedra, a cloud's vertex cells) by format, shared by every kind that
+#: writes cells: ``write(path, V, cell kind, C, fields, format)``.
+CELL_WRITERS = {"vtp": _write_vtp, "vtu": _write_vtu, "legacy": _write_legacy, "meshio": _write_meshio}
+
+# the mesh formats: read(path, format) -> (V, F or None, point_data); write as CELL_WRITERS
+for _fmt in (
+    Format("VTU", "mesh", (".vtu",), _read_vtu, _write_vtu, fields=True, seen_by=("meshio", "pyvista"),
+           vectors=True),
+    Format("VTP", "mesh", (".vtp",), _read_vtp, _write_vtp, fields=True, seen_by=("pyvista",), vectors=True),
+    Format("legacy VTK", "mesh", (".vtk",), _read_legacy, _write_legacy, fields=True,
+           seen_by=("meshio", "pyvista"), vectors=True, plain_names=True, reserved=vtk_reserved),
+    Format("PLY", "mesh", (".ply",), _read_meshio, _write_meshio, fields=True, seen_by=("meshio",), columns=True,
+           plain_names=True, reserved=ply_reserved, meshio="ply"),
+    Format("OFF", "mesh", (".off",), _read_meshio, _write_meshio, meshio="off"),
+    Format("OBJ", "mesh", (".obj",), _read_meshio, _write_meshio, meshio="obj"),
+    Format("STL", "mesh", (".stl",), _read_meshio, _write_meshio, vertex_numbering=False, meshio="stl"),
+    Format("GIfTI", "mesh", (".gii",), _read_gifti, fields=True, seen_by=("nibabel",), extra="neuro"),
+    Format("XYZ points", "mesh", (".xyz",), _points_reader(read_xyz), cells=False),
+    Format("CSV points", "mesh", (".csv",), _points_reader(read_csv_points), cells=False, text=True),
+    # a point cloud (points, no faces) is written as one vertex cell per point (PLY: the vertices alone)
+    Format("VTP", "points", (".vtp",), write=_write_vtp, fields=True, vectors=True),
+    Format("VTU", "points", (".vtu",), write=_write_vtu, fields=True, vectors=True),
+    Format("legacy VTK", "points", (".vtk",), write=_write_legacy, fields=True, vectors=True, plain_names=True,
+           reserved=vtk_reserved),
+    Format("PLY", "points", (".ply",), write=_write_meshio, fields=True, columns=True, plain_names=True,
+           reserved=ply_reserved, meshio="ply"),
+):
+    register_format(_fmt)
+
+#: The mesh formats (a view of :mod:`manifill.io.formats`' registry).
+MESH_FORMATS = FormatView("mesh")
+#: The formats a point cloud is written as (a view of the registry).
+POINT_FORMATS = FormatView("points", writing=True)
+#: FreeSurfer triangle surfaces, recognised by their magic number (no suffix)
+FREESURFER = Format("FreeSurfer surface", "mesh", (), _read_freesurfer, extra="neuro")
 _READERS_SHOWN = {"meshio": "meshio", "pyvista": "pyvista/VTK/ParaView", "nibabel": "nibabel"}
 
 
@@ -103,15 +159,19 @@ class MeshFile:
         None for a point cloud (read with ``points=True``).
     point_data : dict of str to (n,) or (n, p) numpy array
         The per-vertex arrays stored with it.
-    format : MeshFormat
+    format : manifill.io.formats.Format
     path : Path
     """
 
     V: np.ndarray
     F: np.ndarray
     point_data: dict = field(default_factory=dict)
-    format: MeshFormat = None
+    format: Format = None
     path: Path = None
+
+    def __iter__(self):
+        """``V, F = mesh_file``: the arrays, as :func:`read_mesh` gave them before it gave a :class:`MeshFile`."""
+        return iter((self.V, self.F))
 
     @property
     def vertex_numbering(self):
@@ -123,7 +183,7 @@ class MeshFile:
 
 
 def mesh_format(path, *, writing=False):
-    """The :class:`MeshFormat` of ``path`` (by extension, else FreeSurfer by magic number).
+    """The mesh :class:`~manifill.io.formats.Format` of ``path`` (by extension, else FreeSurfer by magic number).
 
     Raises
     ------
@@ -131,17 +191,17 @@ def mesh_format(path, *, writing=False):
         An extension manifill does not read (or write).
     """
     ext = Path(path).suffix.lower()
-    fmt = MESH_FORMATS.get(ext)
+    fmt = find_format("mesh", path, writing=writing)
     if writing:
-        if fmt is None or not fmt.write:
+        if fmt is None:
             raise WriteError(f"{Path(path).name}: cannot write '{ext or '(no extension)'}' meshes; use one of "
-                             f"{', '.join(e for e, f in MESH_FORMATS.items() if f.write)}")
+                             f"{suffix_list('mesh', writing=True)}")
         return fmt
     if fmt is None:
         if Path(path).is_file() and sniff(path) == "freesurfer-surface":
             return FREESURFER
         raise ReadError(f"{Path(path).name}: cannot read '{ext or '(no extension)'}' files; use one of "
-                        f"{', '.join(MESH_FORMATS)} or a FreeSurfer surface")
+                        f"{suffix_list('mesh')} or a FreeSurfer surface")
     return fmt
 
 
@@ -216,49 +276,23 @@ def read_mesh_file(path, *, points=False):
 
 
 def _read_or_points(path, fmt, points):
-    if fmt.reader in ("xyz", "csv"):
-        if not points:
-            raise ReadError(f"{path.name}: holds points, not a mesh; pass a surface mesh (or reconstruct on the points "
-                            f"as a point cloud: 'manifill reconstruct {path.name} SAMPLES -o OUT')")
-        with reading(path, fmt.name):
-            P, point_data = (read_xyz if fmt.reader == "xyz" else read_csv_points)(path)
-        return MeshFile(P, None, point_data, fmt, path)
     try:
-        return _read_mesh_file(path, fmt)
+        V, F, point_data = fmt.read(path, fmt)
     except PointsOnly as exc:
         if not points or exc.V is None or not len(exc.V):
             raise
-        V = np.asarray(exc.V, dtype=np.float64)
-        if V.ndim == 2 and V.shape[1] == 2:
-            V = np.column_stack([V, np.zeros(len(V))])
-        check_cells(path, V, np.zeros((0, 1), np.int64), "point")
-        data = {str(k): np.asarray(a) for k, a in exc.point_data.items() if np.shape(a)[:1] == (len(V),)}
-        return MeshFile(V, None, data, fmt, path)
-
-
-def _read_mesh_file(path, fmt):
-    if fmt.reader == "meshio":
-        V, F, point_data = read_meshio(path, fmt)
-    elif fmt.reader == "vtkxml":
-        V, F, point_data = read_polydata(path)
-    elif fmt.reader == "vtu":
-        V, F, point_data = read_unstructured(path)
-    elif fmt.reader == "legacy":
-        V, cells, point_data = read_legacy(path)
-        F = cells.get("triangle")
-        if F is None or len(F) == 0:
-            kinds = sorted(k for k, c in cells.items() if len(c))
-            no_triangles(path, kinds, None if "tetra" in kinds else V, point_data)
-    elif fmt.reader == "gifti":
-        V, F, point_data = read_gifti(path)
-    else:
-        V, F = read_freesurfer_surface(path)
-        point_data = {}
+        V, F, point_data = exc.V, None, exc.point_data
+    if F is None and not points:
+        raise ReadError(f"{path.name}: holds points, not a mesh; pass a surface mesh (or reconstruct on the points "
+                        f"as a point cloud: 'manifill reconstruct {path.name} SAMPLES -o OUT')")
     V = np.asarray(V, dtype=np.float64)
     if V.ndim == 2 and V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
-    F = np.asarray(F, dtype=np.int64)
-    check_cells(path, V, F, "face")
+    if F is None:
+        check_cells(path, V, np.zeros((0, 1), np.int64), "point")
+    else:
+        F = np.asarray(F, dtype=np.int64)
+        check_cells(path, V, F, "face")
     point_data = {str(k): np.asarray(a) for k, a in point_data.items() if np.shape(a)[:1] == (len(V),)}
     return MeshFile(V, F, point_data, fmt, path)
 
@@ -291,7 +325,8 @@ def check_cells(path, V, C, what):
 
 
 def read_mesh(path):
-    """Read a triangle mesh (see :func:`read_mesh_file` for the formats).
+    """Read a triangle mesh (see :func:`read_mesh_file` for the formats): a :class:`MeshFile`, which unpacks as
+    ``V, F`` (``V, F = read_mesh(path)``).
 
     Parameters
     ----------
@@ -300,8 +335,8 @@ def read_mesh(path):
 
     Returns
     -------
-    V : (n, 3) float64 numpy array
-    F : (m, 3) int64 numpy array
+    MeshFile
+        ``V`` (n, 3) float64, ``F`` (m, 3) int64, the fields stored with them (``point_data``), the format.
 
     Raises
     ------
@@ -309,8 +344,9 @@ def read_mesh(path):
         A missing file, an unknown extension, a damaged file, or a file
         without triangles or quads.
     """
-    m = read_mesh_file(path)
-    return m.V, m.F
+    return read_mesh_file(path)
+
+
 def format_note(path):
     """One line telling which common readers will not see the fields of ``path`` (None if all do).
 
@@ -319,7 +355,7 @@ def format_note(path):
     >>> print(format_note("out.ply"))
     note: out.ply: pyvista/VTK/ParaView do not show PLY files' named fields (meshio does); write .vtu for every reader
     """
-    fmt = MESH_FORMATS.get(Path(path).suffix.lower())
+    fmt = find_format("mesh", path, writing=True)
     if fmt is None or not fmt.fields:
         return None
     missing = [r for r in ("meshio", "pyvista") if r not in fmt.seen_by]
@@ -392,9 +428,10 @@ def write_mesh(path, V, F, point_data=None):
     try:
         if F is None and not is_mesh_object(V):  # a point cloud
             V = as_vertices(V)
-            if Path(path).suffix.lower() not in POINT_FORMATS:
-                raise WriteError(f"{Path(path).name}: a point cloud is written as {', '.join(POINT_FORMATS)} (or its "
-                                 f"values as .csv); change the name")
+            if find_format("points", path, writing=True) is None:
+                raise WriteError(f"{Path(path).name}: a point cloud is written as "
+                                 f"{suffix_list('points', writing=True)} "
+                                 f"(or its values as .csv); change the name")
             return write_cells(path, V, np.arange(len(V), dtype=np.int64)[:, None], point_data)
         V, F = as_mesh(*mesh_arrays(V, F), allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     except WriteError:
@@ -426,25 +463,20 @@ def write_cells(path, V, C, point_data=None):
     WriteError
         As :func:`write_mesh`.
     """
-    ext = Path(path).suffix.lower()
     kind = {1: "vertex", 3: "triangle"}.get(C.shape[1], "tetra")
-    names = stored_names(point_data or {}, ext)
+    fmt = find_format({1: "points", 3: "mesh"}.get(C.shape[1], "tets"), path, writing=True)
+    if fmt is None:
+        raise WriteError(f"{Path(path).name}: cannot write {kind} cells as '{Path(path).suffix or '(no extension)'}'; "
+                         f"use one of {suffix_list({1: 'points', 3: 'mesh'}.get(C.shape[1], 'tets'), writing=True)}")
+    names = stored_names(point_data or {}, fmt)
     out = {}
     for name, arr in (point_data or {}).items():
         arr = _field_array(name, arr, len(V))
         key = names[str(name)]
-        if arr.ndim == 2 and ext == ".ply":
+        if arr.ndim == 2 and fmt.columns:
             for j in range(arr.shape[1]):
                 out[f"{key}_{j}"] = np.ascontiguousarray(arr[:, j])
         else:
             out[key] = arr
-    if ext == ".vtp":
-        write_polydata(path, V, None if kind == "vertex" else C, out)
-    elif ext == ".vtu":
-        write_unstructured(path, V, C, out)
-    elif ext == ".vtk":
-        write_legacy(path, V, kind, C, out)
-    else:
-        cells = [] if kind == "vertex" else [(kind, C.astype(np.int32))]  # a cloud's PLY: its vertices alone
-        write_meshio(path, V, cells, out, "gmsh22" if ext == ".msh" else ext[1:])
+    fmt.write(path, V, kind, C, out, fmt)
     return names

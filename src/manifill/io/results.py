@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import OptionError
 from ..report import value_columns
 from ..results import RESERVED_NAMES, register_saver
+from .formats import find_format
 from .registry import write_mesh
 from .samples import VALUE_FORMATS, write_values
 from .solids import GRID_FORMATS, TET_FORMATS, write_tets, write_vti
@@ -31,14 +32,15 @@ def save_result(result, path, names):
         if ext not in GRID_FORMATS:
             raise OptionError(f"a voxel result is written as {' or '.join(GRID_FORMATS)}, not {ext or 'no extension'}"
                               f"; name the file e.g. out.vti")
-        write_vti(path, data if ext == ".vti" else {names[0]: result.fields()[..., 0]}, spacing=result.spacing,
+        named = find_format("grid", path, writing=True).fields  # .vti: every field; .npy: the first alone
+        write_vti(path, data if named else {names[0]: result.fields()[..., 0]}, spacing=result.spacing,
                   origin=result.origin)
     elif form == "tets":
         if ext not in TET_FORMATS:
             raise OptionError(f"a tetrahedral result is written as {', '.join(TET_FORMATS)}, not "
                               f"{ext or 'no extension'}; name the file e.g. out.vtu")
         write_tets(path, result.TV, result.TT, data)
-    elif ext in (".csv", ".gii"):  # the fields and their stds as columns (GIfTI: as named data arrays)
+    elif getattr(find_format("values", path, writing=True), "fields", False):  # fields and stds as named columns
         columns = [key for key in data if key not in RESERVED_NAMES]
         write_values(path, value_columns(data, columns), names=columns)
     elif ext in VALUE_FORMATS:

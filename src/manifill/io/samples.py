@@ -27,6 +27,7 @@ import csv
 import os
 import zipfile
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -35,15 +36,14 @@ from ..errors import MeshError, ReadError, SampleError, WriteError
 from ..surface.options import PointOptions
 from ..surface.samples import Samples, field_names
 from ..validate.samples import MAX_VALUE
-from .files import atomic_path, check_input_file, reading, suffix
+from .files import atomic_path, check_input_file, reading
+from .formats import Format, FormatView, find_format, lookup, register_format
 from .gifti_write import write_gifti_data
-from .neuro import MORPH_SUFFIXES, read_label, read_vertex_data, sniff
+from .neuro import MORPH_SUFFIXES, read_gifti_data, read_label, read_mgh_data, read_morph_data, sniff
 
 __all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "SampleTable", "read_samples", "read_sample_table",
            "samples_from_table", "load_npz", "write_values"]
 
-VALUE_FORMATS = (".csv", ".npy", ".gii")
-SAMPLE_FORMATS = (".csv", ".npz", ".npy", ".gii", ".mgh", ".mgz", ".label")
 _VERTEX_COLUMNS = ("vertex", "idx", "index", "vertex_id", "id")
 
 
@@ -59,14 +59,12 @@ def _split_header(header, path):
     )
 
 
-def _sample_kind(path):
-    """Which reader a sample file needs: by extension, else a FreeSurfer morphometry file by magic number."""
-    ext = Path(path).suffix.lower()
-    if ext in SAMPLE_FORMATS:
-        return ext
-    if ext in MORPH_SUFFIXES or (Path(path).is_file() and sniff(path) == "freesurfer-morph"):
-        return "morph"
-    return suffix(path, SAMPLE_FORMATS + ("(FreeSurfer lh.thickness, ...)",), "read")
+def _sample_format(path):
+    """The format of a sample file: by suffix, else a FreeSurfer morphometry file by its first bytes."""
+    fmt = find_format("samples", path)
+    if fmt is None and Path(path).is_file() and sniff(path) == "freesurfer-morph":
+        return _MORPH
+    return fmt or lookup("samples", path, also=" (or a FreeSurfer file such as lh.thickness)")
 
 
 def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None, snap_to=None,
@@ -162,23 +160,19 @@ def read_sample_table(path, n):
         As :func:`read_samples`.
     """
     path = Path(path)
-    kind = _sample_kind(path)
+    fmt = _sample_format(path)
     check_input_file(path)
-    lines = None
-    if kind == ".csv":
-        kind, table, names, lines = _read_csv(path)
-    elif kind == ".npz":
-        kind, table, names = _read_npz(path)
-    elif kind == ".npy":
-        kind, table, names = _read_structured_npy(path)
-    elif kind == ".label":
-        idx, vals = read_label(path)
-        if len(idx) == 0:
-            raise ReadError(f"{path.name}: a label file without vertices; check the file")
-        kind, table, names = "vertex", np.column_stack([idx, vals]), [path.name.split(".label")[0]]
-    else:
-        kind, table, names = _read_vertex_data(path, n)
-    return SampleTable(kind, table, names, lines)
+    return SampleTable(*fmt.read(path, n))
+
+
+def _read_label(path, n):
+    idx, vals = read_label(path)
+    if len(idx) == 0:
+        raise ReadError(f"{path.name}: a label file without vertices; check the file")
+    return "vertex", np.column_stack([idx, vals]), [path.name.split(".label")[0]], None
+
+
+
 
 
 def samples_from_table(path, V, table, *, duplicates="error", max_distance=None, vertex_numbering=None,
@@ -223,9 +217,17 @@ def samples_from_table(path, V, table, *, duplicates="error", max_distance=None,
         raise SampleError(msg if msg.startswith(f"{path.name}:") else f"{path.name}: {msg}") from None
 
 
-def _read_vertex_data(path, n):
+def _vertex_data(read):
+    """A reader of per-vertex data (NaN = not measured, :mod:`manifill.io.neuro`) as a reader of vertex samples."""
+
+    def read_table(path, n):
+        return _vertex_samples(path, *read(path, n))
+
+    return read_table
+
+
+def _vertex_samples(path, values, names):
     """Per-vertex data (NaN = not measured) as vertex-indexed samples."""
-    values, names = read_vertex_data(path, n)
     known = np.isfinite(values)
     rows = known.all(axis=1)
     mixed = known.any(axis=1) & ~rows
@@ -235,7 +237,7 @@ def _read_vertex_data(path, n):
     if not rows.any():
         raise SampleError(f"{path.name}: every value is NaN; mark the measured vertices with numbers")
     idx = np.flatnonzero(rows)
-    return "vertex", np.column_stack([idx, values[idx]]), names
+    return "vertex", np.column_stack([idx, values[idx]]), names, None
 
 
 def _read_csv(path):
@@ -317,13 +319,17 @@ def load_npy(path, kind="NPY array"):
         return np.load(path, allow_pickle=False)
 
 
+#: The ending of an archive's arrays (``np.savez`` names each ``<key>.npy``); other members are skipped.
+_NPZ_MEMBER = ".npy"
+
+
 def load_npz(path):
     """The arrays of a ``.npz`` archive, each member's header checked against its size first."""
     with reading(path, "NPZ archive"):
         with zipfile.ZipFile(path) as zf:
             data = {}
             for info in zf.infolist():
-                if not info.filename.endswith(".npy"):
+                if not info.filename.endswith(_NPZ_MEMBER):
                     continue
                 with zf.open(info) as fh:
                     _npy_header(fh, f"{path.name} ({info.filename})", info.file_size)
@@ -403,25 +409,86 @@ def write_values(path, values, *, names=None):
         Unknown extension, missing folder, names CSV cannot hold, or a failed
         write.
     """
-    ext = suffix(path, VALUE_FORMATS, "write")
-    if ext == ".gii":  # one data array per field (.func.gii)
-        return write_gifti_data(path, values, names=names)
+    return lookup("values", path, writing=True).write(path, values, names)
+
+
+def _value_table(values, names, fmt):
     values = np.asarray(values, dtype=np.float64)
     values = values[:, None] if values.ndim == 1 else values
     if values.ndim != 2:
         raise WriteError(f"values have shape {values.shape}; pass (n,) or (n, p) per-vertex values")
     names = field_names(names, values.shape[1])
-    if ext == ".csv" and any(("," in nm or '"' in nm or "\n" in nm or "\r" in nm) for nm in names):
+    if fmt.text and any(("," in nm or '"' in nm or "\n" in nm or "\r" in nm) for nm in names):
         raise WriteError("a column name holds a comma, quote or line break; rename it for CSV")
+    return values, names
+
+
+def _write_npy_values(path, values, names):
+    values, names = _value_table(values, names, _NPY_VALUES)
     with atomic_path(path) as tmp:
         try:
-            if ext == ".npy":
-                with open(tmp, "wb") as fh:
-                    np.save(fh, values[:, 0] if values.shape[1] == 1 else values)
-            else:
-                table = np.column_stack([np.arange(len(values)), values])
-                fmt = ["%d"] + ["%.17g"] * values.shape[1]
-                np.savetxt(tmp, table, fmt=fmt, delimiter=",", header=",".join(["vertex", *names]), comments="",
-                           encoding="utf-8")
+            with open(tmp, "wb") as fh:
+                np.save(fh, values[:, 0] if values.shape[1] == 1 else values)
         except OSError as exc:
             raise WriteError(f"{Path(path).name}: could not write ({exc})") from None
+
+
+def _write_csv_values(path, values, names):
+    values, names = _value_table(values, names, _CSV_VALUES)
+    with atomic_path(path) as tmp:
+        try:
+            table = np.column_stack([np.arange(len(values)), values])
+            fmt = ["%d"] + ["%.17g"] * values.shape[1]
+            np.savetxt(tmp, table, fmt=fmt, delimiter=",", header=",".join(["vertex", *names]), comments="",
+                       encoding="utf-8")
+        except OSError as exc:
+            raise WriteError(f"{Path(path).name}: could not write ({exc})") from None
+
+
+def _write_gifti_values(path, values, names):
+    return write_gifti_data(path, values, names=names)  # one data array per field (.func.gii)
+
+
+def _read_npy_samples(path, n):
+    return (*_read_structured_npy(path), None)
+
+
+def _read_npz_samples(path, n):
+    return (*_read_npz(path), None)
+
+
+def _read_csv_samples(path, n):
+    return _read_csv(path)
+
+
+# values (per-vertex values alone): read(path, n) -> (values (n, p) with NaN where unmeasured, names);
+# write(path, values, names)
+_CSV_VALUES = Format("CSV", "values", (".csv",), write=_write_csv_values, fields=True, text=True)
+_NPY_VALUES = Format("NumPy array", "values", (".npy",), write=_write_npy_values)
+_MORPH = Format("FreeSurfer morphometry", "samples", (), _vertex_data(read_morph_data), extra="neuro")
+for _fmt in (
+    _CSV_VALUES, _NPY_VALUES,
+    Format("GIfTI", "values", (".gii",), read_gifti_data, _write_gifti_values, fields=True, seen_by=("nibabel",),
+           exact=False, extra="neuro"),  # float32, what Workbench reads
+    Format("MGH", "values", (".mgh",), read_mgh_data, extra="neuro"),
+    Format("MGZ", "values", (".mgz", ".mgh.gz"), partial(read_mgh_data, compressed=True), extra="neuro"),
+    Format("FreeSurfer morphometry", "values", MORPH_SUFFIXES, partial(read_morph_data, named=True),
+           extra="neuro"),
+    # samples: read(path, n) -> (kind, table, names, CSV line numbers or None)
+    Format("CSV", "samples", (".csv",), _read_csv_samples, text=True),
+    Format("NumPy archive", "samples", (".npz",), _read_npz_samples, times=True),  # 'times' beside the values
+    Format("NumPy array", "samples", (".npy",), _read_npy_samples),
+    Format("GIfTI", "samples", (".gii",), _vertex_data(read_gifti_data), extra="neuro"),
+    Format("MGH", "samples", (".mgh",), _vertex_data(read_mgh_data), extra="neuro"),
+    Format("MGZ", "samples", (".mgz", ".mgh.gz"), _vertex_data(partial(read_mgh_data, compressed=True)),
+           extra="neuro"),
+    Format("FreeSurfer label", "samples", (".label",), _read_label, extra="neuro"),
+    Format("FreeSurfer morphometry", "samples", MORPH_SUFFIXES, _vertex_data(partial(read_morph_data, named=True)),
+           extra="neuro"),
+):
+    register_format(_fmt)
+
+#: The formats of per-vertex values written, and of samples read (views of :mod:`manifill.io.formats`' registry).
+VALUE_FORMATS = FormatView("values", writing=True)
+SAMPLE_FORMATS = FormatView("samples")
+

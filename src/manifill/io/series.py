@@ -46,13 +46,15 @@ import numpy as np
 
 from ..errors import ReadError, SampleError, WriteError
 from ..surface.samples import Samples
-from .files import check_input_file, reading, suffix
+from .files import check_input_file, reading
+from .formats import FormatView, find_format, lookup
 from .meshio_files import meshio_read
 from .gifti_write import read_gifti_times
-from .neuro import read_vertex_data
+from .neuro import read_gifti_data
 from .samples import SAMPLE_FORMATS, SampleTable, load_npy, load_npz, read_sample_table, samples_from_table
 
-__all__ = ["SampleSeries", "read_series", "TIME_COLUMNS", "SERIES_FORMATS", "SeriesFormat", "need_h5py",
+__all__ = ["SampleSeries", "read_series", "TIME_COLUMNS", "SERIES_FORMATS", "series_only", "need_h5py",
+           "read_npy_series", "read_gifti_series", "read_xdmf_series", "read_pvd_series", "read_h5_series",
            "read_series_values"]
 
 #: names of the time column of a long CSV (any case); not ``t``, which is a common field name
@@ -60,45 +62,15 @@ TIME_COLUMNS = ("time",)
 _NUMBER = re.compile(r"\d+(?:\.\d+)?")
 
 
-@dataclass(frozen=True)
-class SeriesFormat:
-    """One time-series format.
-
-    Attributes
-    ----------
-    name : str
-    times : bool
-        It stores the times (``.npy`` does not: reading gives ``0 .. T-1``).
-    static : bool
-        It stores static fields (``static=``).
-    needs_steps : bool
-        The number of steps must be given up front (``steps=T``).
-    extra : str or None
-        The extra it needs (``series``: h5py).
-    seen_by : tuple of str
-        Common readers that open it.
-    exact : bool
-        It keeps float64 values (GIfTI keeps float32, what Workbench reads).
-    """
-
-    name: str
-    times: bool
-    static: bool
-    needs_steps: bool
-    extra: str = None
-    seen_by: tuple = ()
-    exact: bool = True
+#: The formats of a field over time (a view of :mod:`manifill.io.formats`' registry; registered by
+#: :mod:`manifill.io.series_write`, which holds their writers): read(path, name) -> (times, values)
+SERIES_FORMATS = FormatView("series")
 
 
-SERIES_FORMATS = {
-    ".xdmf": SeriesFormat("XDMF + HDF5", True, True, False, "series", ("meshio", "pyvista", "ParaView")),
-    ".pvd": SeriesFormat("ParaView collection of VTU", True, True, False, None, ("pyvista", "ParaView")),
-    ".npy": SeriesFormat("NumPy array", False, False, True),
-    ".h5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
-    ".hdf5": SeriesFormat("HDF5 datasets", True, True, True, "series", ("h5py",)),
-    ".gii": SeriesFormat("GIfTI time series", True, False, False, "neuro", ("nibabel", "nilearn", "Workbench"),
-                         exact=False),
-}
+def series_only(path):
+    """Whether ``path`` is written only as a time series (``.xdmf``, ``.pvd``, ``.h5``), not as one result's
+    values (``.npy``, ``.gii`` are both)."""
+    return find_format("series", path, writing=True) is not None and find_format("values", path, writing=True) is None
 
 
 def need_h5py(path, error=WriteError):
@@ -223,7 +195,8 @@ def _read_wide(path, V, tab, opts):
     vals = tab.table[:, nc:]
     T = vals.shape[1]
     times, source = None, "the step numbers"
-    if path.suffix.lower() == ".npz":
+    fmt = find_format("samples", path)
+    if fmt is not None and fmt.times:  # a NumPy archive's 'times'
         times = load_npz(path).get("times")
         if times is not None:
             times, source = _npz_times(path, times, T), "the file's 'times'"
@@ -291,7 +264,7 @@ def _read_long(path, V, tab, opts):
 
 def _folder_files(folder):
     files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith(".")
-                   and p.suffix.lower() in SAMPLE_FORMATS)
+                   and find_format("samples", p) is not None)
     if not files:
         raise ReadError(f"{folder}: a folder without sample files ({', '.join(SAMPLE_FORMATS)}); put one file per "
                         f"time step in it")
@@ -376,21 +349,44 @@ def read_series_values(path, *, name=None):
         file, or steps of different sizes.
     """
     path = Path(path)
-    ext = suffix(path, tuple(SERIES_FORMATS), "read")
+    fmt = lookup("series", path)
     check_input_file(path)
-    if ext == ".npy":
-        X = load_npy(path)
-        if X.ndim not in (1, 2) or X.dtype.names is not None:
-            raise ReadError(f"{path.name}: an array of shape {X.shape}; a series is (n, T)")
-        X = X.astype(np.float64).reshape(len(X), -1)
-        return np.arange(X.shape[1], dtype=np.float64), X
-    if ext in (".h5", ".hdf5"):
-        return _read_h5(path, name)
-    if ext == ".gii":  # one data array per step (float32), each with its time (or the step numbers)
-        X, _ = read_vertex_data(path, None)
-        times = read_gifti_times(path)
-        return (np.arange(X.shape[1], dtype=np.float64) if times is None else times), X
-    steps = _read_xdmf(path, name) if ext == ".xdmf" else _read_pvd(path, name)
+    return fmt.read(path, name)
+
+
+def read_npy_series(path, name=None):
+    """``(times, values)`` of an ``(n, T)`` array (times ``0 .. T-1``)."""
+    X = load_npy(path)
+    if X.ndim not in (1, 2) or X.dtype.names is not None:
+        raise ReadError(f"{path.name}: an array of shape {X.shape}; a series is (n, T)")
+    X = X.astype(np.float64).reshape(len(X), -1)
+    return np.arange(X.shape[1], dtype=np.float64), X
+
+
+def read_gifti_series(path, name=None):
+    """``(times, values)`` of a GIfTI series: one data array per step (float32), each with its time (or the step
+    numbers)."""
+    X, _ = read_gifti_data(path, None)
+    times = read_gifti_times(path)
+    return (np.arange(X.shape[1], dtype=np.float64) if times is None else times), X
+
+
+def read_xdmf_series(path, name=None):
+    """``(times, values)`` of an XDMF file (its arrays in HDF5)."""
+    return _steps(path, _read_xdmf(path, name))
+
+
+def read_pvd_series(path, name=None):
+    """``(times, values)`` of a ParaView collection of VTU files."""
+    return _steps(path, _read_pvd(path, name))
+
+
+def read_h5_series(path, name=None):
+    """``(times, values)`` of manifill's HDF5 datasets."""
+    return _read_h5(path, name)
+
+
+def _steps(path, steps):
     if not steps:
         raise ReadError(f"{path.name}: no time steps; check the file")
     times = np.array([t for t, _ in steps], dtype=np.float64)

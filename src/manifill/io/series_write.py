@@ -52,8 +52,10 @@ import numpy as np
 
 from ..errors import WriteError
 from .field_names import check_field_names
-from .files import ACTIVE, remove_temporaries, suffix
-from .series import SERIES_FORMATS, need_h5py
+from .files import ACTIVE, remove_temporaries
+from .formats import Format, lookup, register_format
+from .series import (need_h5py, read_gifti_series, read_h5_series, read_npy_series, read_pvd_series,
+                     read_xdmf_series)
 from .gifti_write import GiftiSeries
 from .vtkxml_write import write_unstructured
 
@@ -154,8 +156,8 @@ class SeriesWriter:
 
     def __init__(self, path, V, F, *, names=None, static=None, steps=None):
         self.path = Path(path)
-        ext = suffix(self.path, tuple(SERIES_FORMATS), "write")
-        self.format = SERIES_FORMATS[ext]
+        self.format = lookup("series", self.path, writing=True)
+        ext = self.path.suffix.lower()
         if not self.path.parent.is_dir():
             raise WriteError(f"folder {self.path.parent} does not exist; create it first or choose another output "
                              f"path")
@@ -172,8 +174,9 @@ class SeriesWriter:
         if static and not self.format.static:
             raise WriteError(f"{self.path.name}: {self.format.name} holds the values alone; write .h5, .xdmf or .pvd "
                              f"to keep static fields, or pass static=None")
-        bad = [k for k in [self.name, *map(str, static)] if "/" in k or k == "times" or k.startswith(".")]
-        if ext in (".h5", ".hdf5") and bad:
+        bad = [k for k in [self.name, *map(str, static)]
+               if self.format.reserved is not None and self.format.reserved(k)]
+        if bad:
             raise WriteError(f"{self.path.name}: {bad[0]!r} cannot name an HDF5 dataset here ('/' makes groups, "
                              f"'times' is taken); rename the field")
         if self.format.needs_steps and steps is None:
@@ -182,13 +185,13 @@ class SeriesWriter:
         if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
             raise WriteError(f"steps={steps!r}; pass the number of time steps, an integer >= 1")
         self.steps = None if steps is None else int(steps)
-        self.V, self.C = _cells(self.path, V, F, ext in (".xdmf", ".pvd"))
+        self.V, self.C = _cells(self.path, V, F, self.format.cells)
         self.n = len(self.V)
         self.static = {str(k): _static_array(k, a, self.n) for k, a in static.items()}
         self.written = 0
         self.last_time = None
         self._open = False
-        self._out = {".xdmf": _Xdmf, ".pvd": _Pvd, ".npy": _Npy, ".gii": GiftiSeries}.get(ext, _H5)(self)
+        self._out = self.format.write(self)
         self._open = True
 
     def __enter__(self):
@@ -498,3 +501,25 @@ def write_series(path, V, F, X, times=None, *, names=None, static=None):
     steps = X.shape[1] if X.ndim == 2 else 1
     with SeriesWriter(path, V, F, names=names, static=static, steps=steps) as w:
         w.write(X, times)
+
+
+def _h5_reserved(name):
+    """A name that cannot name one of manifill's HDF5 datasets ('/' makes groups, 'times' is taken)."""
+    return "/" in name or name == "times" or name.startswith(".")
+
+
+# series: read(path, name) -> (times, values) (:mod:`manifill.io.series`); write(SeriesWriter) -> the writer of the
+# steps (``add``, ``finish``, ``abort``)
+for _fmt in (
+    Format("XDMF + HDF5", "series", (".xdmf",), read_xdmf_series, _Xdmf, fields=True, cells=True, beside=("{stem}.h5",),
+           times=True,
+           static=True, extra="series", seen_by=("meshio", "pyvista", "ParaView")),
+    Format("ParaView collection of VTU", "series", (".pvd",), read_pvd_series, _Pvd, fields=True, cells=True,
+           folder=True, beside=("{stem}",), times=True, static=True, seen_by=("pyvista", "ParaView")),
+    Format("NumPy array", "series", (".npy",), read_npy_series, _Npy, cells=False, needs_steps=True),
+    Format("HDF5 datasets", "series", (".h5", ".hdf5"), read_h5_series, _H5, fields=True, cells=False, times=True,
+           static=True, needs_steps=True, reserved=_h5_reserved, extra="series", seen_by=("h5py",)),
+    Format("GIfTI time series", "series", (".gii",), read_gifti_series, GiftiSeries, cells=False, times=True,
+           extra="neuro", seen_by=("nibabel", "nilearn", "Workbench"), exact=False),
+):
+    register_format(_fmt)

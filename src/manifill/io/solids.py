@@ -12,15 +12,17 @@ Writes are atomic (:func:`manifill.io.files.atomic_path`).
 
 import base64  # noqa: F401  (manifill.io.solids.base64 is the module the VTI writer encodes with)
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import ManifillError, ReadError, WriteError
 from ..validate import as_tets
-from .files import atomic_path, check_count, suffix
+from .files import atomic_path, check_count
+from .formats import Format, FormatView, lookup, register_format
 from .meshio_files import meshio_read
-from .registry import check_cells, write_cells
+from .registry import CELL_WRITERS, check_cells, write_cells
 from .samples import load_npy
 from .vtklegacy_read import read_legacy
 from .vtkxml_read import read_imagedata
@@ -28,9 +30,66 @@ from .vtkxml_write import grid_arrays, write_imagedata
 
 __all__ = ["TET_FORMATS", "GRID_FORMATS", "read_tets", "write_tets", "write_vti", "read_vti", "read_mask", "has_tets"]
 
-#: extension -> meshio format of tetrahedral meshes
-TET_FORMATS = {".vtu": "vtu", ".vtk": "vtk", ".msh": "gmsh"}
-GRID_FORMATS = (".vti", ".npy")
+def _read_legacy_tets(path, fmt):
+    V, cells, _ = read_legacy(path)
+    if len(cells.get("tetra", ())) == 0:
+        kinds = ", ".join(k for k, c in cells.items() if len(c)) or "none"
+        raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
+    return V, cells["tetra"]
+
+
+def _read_meshio_tets(path, fmt):
+    if fmt.meshio == "gmsh":
+        _check_msh(path)
+    mesh = meshio_read(path, fmt.suffixes[0], fmt.meshio)
+    tets = [b.data for b in mesh.cells if b.type == "tetra"]
+    if not tets:
+        kinds = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
+        raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
+    V = np.asarray(mesh.points, dtype=np.float64)
+    T = np.concatenate(tets).astype(np.int64)
+    check_cells(path, V[:, :3] if V.ndim == 2 else V, T, "tetrahedron")
+    return V[:, :3], T
+
+
+def _write_gmsh(path, V, kind, C, data, fmt):
+    CELL_WRITERS["meshio"](path, V, kind, C, data, replace(fmt, meshio="gmsh22"))  # Gmsh 2.2, which every reader takes
+
+
+def _read_npy_grid(path, fmt):
+    return {None: load_npy(path, ".npy array")}, None, None  # the header checked against the file's size first
+
+
+def _read_vti_grid(path, fmt):
+    return read_imagedata(path)
+
+
+def _write_npy_grid(path, fields, spacing, origin):
+    _, arrays = grid_arrays(fields)
+    if len(arrays) != 1:
+        raise WriteError(f"{Path(path).name}: .npy holds one array but {len(arrays)} fields were given; "
+                         f"write .vti")
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.save(fh, next(iter(arrays.values())))
+
+
+# tets: read(path, format) -> (V, T); written by the cell writers. grid: read(path, format) -> (fields, spacing,
+# origin) (one unnamed field from .npy); write(path, fields, spacing, origin)
+for _fmt in (
+    Format("VTU", "tets", (".vtu",), _read_meshio_tets, CELL_WRITERS["vtu"], fields=True, vectors=True,
+           meshio="vtu"),
+    Format("legacy VTK", "tets", (".vtk",), _read_legacy_tets, CELL_WRITERS["legacy"], fields=True, vectors=True,
+           plain_names=True),
+    Format("Gmsh", "tets", (".msh",), _read_meshio_tets, _write_gmsh, fields=True, plain_names=True,
+           meshio="gmsh"),
+    Format("VTK ImageData", "grid", (".vti",), _read_vti_grid, write_imagedata, fields=True, vectors=True),
+    Format("NumPy array", "grid", (".npy",), _read_npy_grid, _write_npy_grid),
+):
+    register_format(_fmt)
+
+#: The formats of tetrahedral meshes and of voxel grids (views of :mod:`manifill.io.formats`' registry).
+TET_FORMATS = FormatView("tets")
+GRID_FORMATS = FormatView("grid")
 
 
 def read_tets(path):
@@ -52,26 +111,10 @@ def read_tets(path):
         Missing file, unknown extension, unparsable file, or no tetrahedra.
     """
     path = Path(path)
-    ext = suffix(path, tuple(TET_FORMATS), "read")
+    fmt = lookup("tets", path)
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
-    if ext == ".vtk":
-        V, cells, _ = read_legacy(path)
-        if len(cells.get("tetra", ())) == 0:
-            kinds = ", ".join(k for k, c in cells.items() if len(c)) or "none"
-            raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
-        return V, cells["tetra"]
-    if ext == ".msh":
-        _check_msh(path)
-    mesh = meshio_read(path, ext, TET_FORMATS[ext])
-    tets = [b.data for b in mesh.cells if b.type == "tetra"]
-    if not tets:
-        kinds = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
-        raise ReadError(f"{path.name}: holds no tetrahedra (cells found: {kinds}); pass a tetrahedral mesh")
-    V = np.asarray(mesh.points, dtype=np.float64)
-    T = np.concatenate(tets).astype(np.int64)
-    check_cells(path, V[:, :3] if V.ndim == 2 else V, T, "tetrahedron")
-    return V[:, :3], T
+    return fmt.read(path, fmt)
 
 
 def _check_msh(path):
@@ -188,7 +231,7 @@ def write_tets(path, V, T, point_data=None):
         Unknown extension, a malformed mesh, wrong field lengths or names, or a
         failure while writing (nothing is left behind).
     """
-    suffix(path, tuple(TET_FORMATS), "write")
+    lookup("tets", path, writing=True)
     try:
         V, T = as_tets(V, T, allow_degenerate=True, allow_unreferenced=True)
     except ManifillError as exc:
@@ -221,16 +264,7 @@ def write_vti(path, fields, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
     >>> bool((d["t"] == np.arange(24.0).reshape(2, 3, 4)).all()), h.tolist()
     (True, [1.0, 1.0, 2.0])
     """
-    ext = suffix(path, GRID_FORMATS, "write")
-    if ext == ".vti":
-        write_imagedata(path, fields, spacing, origin)
-        return
-    _, arrays = grid_arrays(fields)
-    if len(arrays) != 1:
-        raise WriteError(f"{Path(path).name}: .npy holds one array but {len(arrays)} fields were given; "
-                         f"write .vti")
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.save(fh, next(iter(arrays.values())))
+    lookup("grid", path, writing=True).write(path, fields, spacing, origin)
 
 
 def read_vti(path):
@@ -251,8 +285,10 @@ def read_vti(path):
         Missing file, not ImageData, a damaged file or a rotated grid.
     """
     path = Path(path)
-    suffix(path, (".vti",), "read")
-    return read_imagedata(path)
+    fmt = lookup("grid", path)
+    if not fmt.fields:
+        raise ReadError(f"{path.name}: holds one unnamed array, not named fields on a grid; pass a .vti file")
+    return fmt.read(path, fmt)
 
 
 def read_mask(path, *, field=None):
@@ -276,14 +312,13 @@ def read_mask(path, *, field=None):
         A missing file, no such field, or values other than 0 and 1.
     """
     path = Path(path)
-    ext = suffix(path, GRID_FORMATS, "read")
+    fmt = lookup("grid", path)
     if not path.is_file():
         raise ReadError(f"{path}: no such file")
-    if ext == ".npy":
-        arr = load_npy(path, ".npy array")  # the header checked against the file's size first
-        spacing = origin = None
+    fields, spacing, origin = fmt.read(path, fmt)
+    if not fmt.fields:
+        arr = fields[None]
     else:
-        fields, spacing, origin = read_vti(path)
         name = field or ("mask" if "mask" in fields else (next(iter(fields)) if len(fields) == 1 else None))
         if name not in fields:
             raise ReadError(f"{path.name}: holds fields {', '.join(fields) or '(none)'}; name the mask with "

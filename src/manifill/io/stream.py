@@ -23,7 +23,7 @@ from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, sample_mask
 from ..surface.methods.registry import configure
 from ..surface.reconstructor import Reconstructor
 from .distributed import ordered_map
-from .series import SERIES_FORMATS
+from .formats import find_format
 from .series_write import SeriesWriter
 
 __all__ = ["CHUNK_BYTES", "MAP_BYTES", "MAP_STEPS_PER_SAMPLE", "SeriesResult", "apply_chunk", "chunk_size",
@@ -214,8 +214,7 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
                 mV, mF = rec.mesh()  # a point cloud's points are vertex cells
                 cells = np.arange(len(mV))[:, None] if mF is None else mF
                 writer = SeriesWriter(path, mV, cells, names=name, steps=T,
-                                      static=static if getattr(SERIES_FORMATS.get(Path(path).suffix.lower()), "static", True)
-                                      else None)
+                                      static=static if getattr(find_format("series", path), "static", True) else None)
             writer.write(values, times[s:s + step])
             seconds["write"] += time.perf_counter() - t
         writer.close()

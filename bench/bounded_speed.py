@@ -82,7 +82,7 @@ def main(argv=None):
         if rb is None:
             print(f"| {title} | {tu:.1f} | failed: {row['bounded_error']} | {td:.1f} | | | | | | | |", flush=True)
             continue
-        h = rb.report["harmonic"]
+        h = rb.report["fill"]
         b = h["bounds"]
         print(f"| {title} | {tu:.1f} | {tb:.1f} | {td:.1f} | {tb / tu:.1f}x | {tb / td:.1f}x | {h['solver']} | "
               f"{sum(b['iterations'])} | {sum(b.get('setups', [0]))} | "

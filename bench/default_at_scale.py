@@ -43,7 +43,7 @@ def main(argv=None):
     free = np.ones(len(V), dtype=bool)
     free[idx] = False
     err = float(np.sqrt(np.mean((r.values[free] - f[free]) ** 2)) / np.ptp(f))
-    h = r.report["harmonic"]
+    h = r.report["fill"]
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     print(f"{args.mode}: {len(V):,} vertices, {args.k:,} samples: {seconds:.1f} s, rel. RMSE {err:.5f}, solver "
           f"{h.get('solver')} ({h.get('iterations')} steps), peak {peak:.2f} GB")

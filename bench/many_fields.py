@@ -118,7 +118,7 @@ def child(cfg):
 
     r = st.run("reconstruct", lambda: manifill.reconstruct(V, F, idx, vals, **opts))
     X = r.values
-    h = r.report["harmonic"]
+    h = r.report["fill"]
     out.update(method_run=r.report["method"], solver=h.get("solver"), unknowns=h.get("unknowns"),
                fixed=int(r.on_curve.sum()), reconstruct_steps={s: float(v) for s, v in r.report["seconds"].items()},
                check_skipped="check_skipped" in r.report)

@@ -79,7 +79,7 @@ def child(level, samples, repeat, cache):
         totals.append(time.perf_counter() - t0)
         steps.append({k: float(v) for k, v in r.report["seconds"].items()})
     best = int(np.argmin(totals))
-    h = r.report["harmonic"]
+    h = r.report["fill"]
     return {"level": level, "vertices": n, "samples": samples, "totals": totals, "total": totals[best],
             "steps": steps[best], "rss_before_kb": rss_before, "solver": h.get("solver"),
             "iterations": h.get("iterations"), "levels": h.get("levels"), "blocks": h.get("blocks"),

@@ -117,7 +117,7 @@ def child(tool, level, k, workdir, repeat):
         best = int(np.argmin(totals))
         out.update(totals=totals, steps=steps[best], igl_fixed_times=igl_times,
                    fixed=int(b.size), curves=r.report["partition"]["curves"],
-                   patches=r.report["partition"]["patches"], solver=r.report["harmonic"]["solver"],
+                   patches=r.report["partition"]["patches"], solver=r.report["fill"]["solver"],
                    max_diff=float(np.abs(z - r.values).max()))
         np.savez(fixed_file, b=b, bc=r.values[b])
     elif tool == "igl-fixed":

@@ -105,7 +105,7 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
             "relative_rmse": _relative_rmse(rec.values, truth, free),
             "max_error": float(np.abs(rec.values - truth).max()),
             "seconds": time.perf_counter() - t0,
-            "solver": rec.report["harmonic"]["solver"],
+            "solver": rec.report["fill"]["solver"],
         }
         fields[key] = rec.values
     fields[CURVE_MASK] = rec.on_curve  # the pipeline's curves and patches

@@ -10,7 +10,36 @@ import math
 
 import numpy as np
 
-__all__ = ["value_ranges", "uncertainty_lines", "value_columns"]
+__all__ = ["Report", "RENAMED_KEYS", "value_ranges", "uncertainty_lines", "value_columns"]
+
+
+#: Report keys renamed, read under their old name for one release with a warning: old -> new.
+RENAMED_KEYS = {"harmonic": "fill"}
+
+
+class Report(dict):
+    """A reconstruction's report: a dict whose renamed keys (:data:`RENAMED_KEYS`) are still read, with a warning.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> r = Report(fill={"solver": "direct"})
+    >>> with warnings.catch_warnings(record=True) as w:
+    ...     warnings.simplefilter("always")
+    ...     r["harmonic"]["solver"], str(w[0].message)
+    ('direct', "report['harmonic'] is now report['fill'] (the fill of every method); the old key goes in the next \
+release")
+    """
+
+    def __missing__(self, key):
+        new = RENAMED_KEYS.get(key)
+        if new is None or new not in self:
+            raise KeyError(key)
+        import warnings
+
+        warnings.warn(f"report[{key!r}] is now report[{new!r}] (the fill of every method); the old key goes in the "
+                      f"next release", DeprecationWarning, stacklevel=2)
+        return self[new]
 
 
 def value_ranges(values, point_ndim=1):

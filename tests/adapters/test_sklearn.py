@@ -102,7 +102,7 @@ def test_a_grid_search_over_smoothing_agrees_with_gcv():
     idx = np.sort(RNG.choice(len(V), 300, replace=False))
     y = field(V[idx]) + RNG.normal(0, 0.15, idx.size)
     gcv = manifill.reconstruct(V, F, idx, y, method="biharmonic", smoothing="auto")
-    lam = gcv.report["harmonic"]["smoothing"]["lambda"]
+    lam = gcv.report["fill"]["smoothing"]["lambda"]
     grid = GridSearchCV(SurfaceRegressor(V, F, method="biharmonic"),
                         {"smoothing": list(np.logspace(-5, 0, 21))}, cv=KFold(10, shuffle=True, random_state=0))
     grid.fit(idx[:, None], y)

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog, lsq_linear
 
 from manifill import SampleError, SolveError
-from manifill.linalg.active_set import as_bounds
+from manifill.linalg.active_set import bounds_per_field
 from manifill.linalg.quadratic import QuadraticSolver
 from manifill.mesh.laplacian import laplacian, mass_matrix
 from manifill.mesh.shapes import grid, icosphere
@@ -246,7 +246,7 @@ def test_impossible_bounds_are_refused_in_one_line():
 
 
 def test_as_bounds_broadcasts():
-    lo, hi = as_bounds(None, [1.0, 2.0], 2)
+    lo, hi = bounds_per_field(None, [1.0, 2.0], 2)
     assert lo.tolist() == [-np.inf, -np.inf] and hi.tolist() == [1.0, 2.0]
 
 

@@ -311,8 +311,8 @@ def test_mask_uses_the_surface_solver():
     base = reconstruct_volume_mask(mask, on, vals, weights="uniform")
     direct = reconstruct_volume_mask(mask, on, vals, solver="direct")
     it = reconstruct_volume_mask(mask, on, vals, solver="iterate")
-    assert direct.surface.report["harmonic"]["solver"] == "direct"
-    assert it.surface.report["harmonic"]["solver"] == "iterate"
+    assert direct.surface.report["fill"]["solver"] == "direct"
+    assert it.surface.report["fill"]["solver"] == "iterate"
     np.testing.assert_allclose(it.surface.values, direct.surface.values, rtol=0, atol=1e-6)
     np.testing.assert_allclose(base.values[mask], direct.values[mask], rtol=0, atol=1e-9)
 

@@ -34,7 +34,7 @@ def test_equals_libigl(method, k, solver):
     ref = igl.harmonic(V, F.astype(np.int64), IDX.astype(np.int64), VALS[:, None], k)[:, 0]
     assert np.abs(r.values - ref).max() <= 1e-8 * np.ptp(VALS)
     np.testing.assert_array_equal(r.values[IDX], VALS)
-    assert r.report["harmonic"]["energy"] == k
+    assert r.report["fill"]["energy"] == k
 
 
 @pytest.mark.parametrize("method", ["biharmonic", "triharmonic"])
@@ -111,7 +111,7 @@ def test_smoothing_auto_beats_interpolation_on_noise():
     smooth = manifill.reconstruct(Vb, Fb, idx, noisy, method="biharmonic", smoothing="auto")
     err = lambda r: np.sqrt(np.mean((r.values - truth) ** 2))  # noqa: E731
     assert err(smooth) < 0.8 * err(exact)
-    rep = smooth.report["harmonic"]["smoothing"]
+    rep = smooth.report["fill"]["smoothing"]
     assert np.asarray(rep["lambda"]).ravel()[0] > 0
     np.testing.assert_allclose(np.asarray(rep["residuals"]).ravel(), smooth.values[idx] - noisy, atol=1e-9)
 
@@ -132,7 +132,7 @@ def test_auto_falls_back_to_a_factorisation_when_cg_stalls(monkeypatch):
     idx = np.sort(np.random.default_rng(5).choice(len(Vb), 50, replace=False))
     vals = field(Vb[idx])
     r = manifill.reconstruct(Vb, Fb, idx, vals, method="biharmonic", maxiter=2)
-    assert "stalled" in r.report["harmonic"]["fallback"] and r.report["harmonic"]["solver"] == "direct"
+    assert "stalled" in r.report["fill"]["fallback"] and r.report["fill"]["solver"] == "direct"
     ref = manifill.reconstruct(Vb, Fb, idx, vals, method="biharmonic", solver="direct")
     np.testing.assert_allclose(r.values, ref.values, atol=1e-12 * np.ptp(vals))
     with pytest.raises(manifill.SolveError, match="did not reach"):

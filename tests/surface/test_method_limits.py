@@ -125,7 +125,7 @@ def test_lambda_to_infinity_gives_the_weighted_mean(method, seed):
     mean = w @ vals / w.sum()
     np.testing.assert_allclose(r.values, mean, rtol=0, atol=1e-6 * np.ptp(vals))
     assert abs(mean - vals.mean()) > 1e-3 * np.ptp(vals)  # the weights matter: the plain mean is another value
-    res = np.asarray(r.report["harmonic"]["smoothing"]["residuals"]).ravel()
+    res = np.asarray(r.report["fill"]["smoothing"]["residuals"]).ravel()
     np.testing.assert_allclose(res, mean - vals, rtol=0, atol=1e-6 * np.ptp(vals))
 
 
@@ -180,7 +180,7 @@ def test_residuals_follow_the_callers_rows():
     order = np.random.default_rng(9).permutation(IDX.size)
     idx, vals = IDX[order], data(4)[order]
     r = reconstruct(VA, FA, idx, vals, method="biharmonic", smoothing=1e-2)
-    res = np.asarray(r.report["harmonic"]["smoothing"]["residuals"])
+    res = np.asarray(r.report["fill"]["smoothing"]["residuals"])
     assert res.shape == vals.shape
     np.testing.assert_allclose(res, r.values[idx] - vals, rtol=0, atol=1e-10 * np.ptp(vals))
 

@@ -137,7 +137,7 @@ def test_exact_at_the_samples(c, seed, rough):
 def test_smoothing_reports_its_residuals_at_the_samples(c):
     vals = data(3)
     r = run(c, vals)
-    rep = r.report["harmonic"]["smoothing"]
+    rep = r.report["fill"]["smoothing"]
     res = np.asarray(rep["residuals"]).ravel()
     np.testing.assert_allclose(res, r.values[IDX] - vals, rtol=0, atol=1e-10 * np.ptp(vals))
     assert float(np.ravel(rep["lambda"])[0]) > 0
@@ -297,7 +297,7 @@ def test_invariant_under_relabelling(c, seed):
         # the GCV curve can be flat to rounding (near interpolation), and rounding then picks another evaluated
         # lambda of the same score: the score is invariant (to 1e-6: near interpolation its denominator
         # (k - edf)^2 amplifies rounding), and so is the fit at the first run's lambda
-        s1, s2 = (r.report["harmonic"]["smoothing"] for r in (a, b))
+        s1, s2 = (r.report["fill"]["smoothing"] for r in (a, b))
         np.testing.assert_allclose(s2["score"], s1["score"], rtol=1e-6)
         b = run(c, vals[order], V_=V2, F_=F2, idx=inv[IDX][order], smoothing=float(np.ravel(s1["lambda"])[0]))
     np.testing.assert_allclose(b.values[inv], a.values, rtol=0, atol=1e-9 * np.ptp(vals))

@@ -110,7 +110,7 @@ def test_the_default_is_a_named_preset_that_says_what_it_ran():
     # a preset fills in only what the caller did not give
     mine = manifill.reconstruct(V, F, IDX, VALS, bounds_mode="exact")
     assert mine.report["method"] == "biharmonic" and "mode" not in mine.report.get("bounds", {})
-    assert mine.report["harmonic"]["bounds"]["iterations"]  # the active set ran
+    assert mine.report["fill"]["bounds"]["iterations"]  # the active set ran
     same = manifill.reconstruct(V, F, IDX, VALS, method="biharmonic", bounds="samples", bounds_mode="project")
     np.testing.assert_array_equal(same.values, manifill.reconstruct(V, F, IDX, VALS).values)
     # curve values belong to the pipeline: the default refuses them (they are not dropped)

@@ -114,7 +114,7 @@ def test_gp_on_a_cloud_is_exact_at_the_samples_and_draws():
 def test_smoothing_bounds_uncertainty_and_robust_weights():
     vals = field(V[IDX]) + np.random.default_rng(2).normal(0, 0.05, len(IDX))
     s = reconstruct(V, None, IDX, vals, method="biharmonic", smoothing="auto")
-    assert s.report["harmonic"]["smoothing"]["lambda"] > 0
+    assert s.report["fill"]["smoothing"]["lambda"] > 0
     b = reconstruct(V, None, IDX, vals, method="biharmonic", bounds="samples")
     assert vals.min() - 1e-9 <= b.values.min() and b.values.max() <= vals.max() + 1e-9
     u = reconstruct(V, None, IDX, vals, method="harmonic", uncertainty=True)

@@ -63,11 +63,11 @@ def test_exact_at_the_points(method, bounds):
     r = reconstruct(V, F, P, vals, method=method, bounds=bounds)
     err = np.abs(r.points.interpolate(r.values) - vals).max()
     assert err <= 1e-10 * np.ptp(vals)
-    assert r.report["points"]["inside_faces"] == len(P) and r.report["harmonic"]["solver"] == "direct"
+    assert r.report["points"]["inside_faces"] == len(P) and r.report["fill"]["solver"] == "direct"
     assert 0.002 <= r.report["points"]["max_distance"] == r.points.distance.max() <= 0.01
     if bounds:
         assert r.report["overshoot"] <= 1e-12 * np.ptp(vals)
-        assert r.report["harmonic"]["bounds"]
+        assert r.report["fill"]["bounds"]
 
 
 @pytest.mark.parametrize("method", ["gvf-harmonic", "gvf"])
@@ -146,12 +146,12 @@ def test_solvers_with_points_inside_faces():
     V, F, P, vals = sphere_points(15)
     a = reconstruct(V, F, P, vals, method="biharmonic", solver="direct")
     b = reconstruct(V, F, P, vals, method="biharmonic")
-    assert np.array_equal(a.values, b.values) and b.report["harmonic"]["solver"] == "direct"
+    assert np.array_equal(a.values, b.values) and b.report["fill"]["solver"] == "direct"
     for method in ("harmonic", "biharmonic"):
         # AMG on the rows eliminated: the same minimiser, the rows held exactly
         d = reconstruct(V, F, P, vals, method=method, solver="direct")
         g = reconstruct(V, F, P, vals, method=method, solver="amg")
-        assert g.report["harmonic"]["solver"] == "amg" and g.report["harmonic"]["eliminated"]
+        assert g.report["fill"]["solver"] == "amg" and g.report["fill"]["eliminated"]
         assert np.abs(g.values - d.values).max() <= 1e-7 * np.ptp(vals)
         assert np.abs(g.points.interpolate(g.values) - vals).max() <= 1e-12 * np.ptp(vals)
     with pytest.raises(OptionError, match="solver='iterate' cannot"):

@@ -13,7 +13,7 @@ import pytest
 
 from manifill import OptionError, SolveError, reconstruct
 from manifill.mesh.shapes import grid, icosphere
-from manifill.surface.rbf import affine_frame, thin_plate
+from manifill.surface.rbf import affine_frame, thin_plate_rbf
 
 
 def tps_reference(X, Y, Q, lam=0.0, w=None):
@@ -106,7 +106,7 @@ def test_translation_and_scale_invariance(sphere):
 def test_agrees_with_a_dense_thin_plate_solve(sphere):
     V, F, idx = sphere
     f = np.column_stack([np.sin(2 * V[:, 0] + V[:, 2]), V[:, 1] ** 3])
-    X, _ = thin_plate(V, V[idx], f[idx])
+    X, _ = thin_plate_rbf(V, V[idx], f[idx])
     # interpolation does not depend on the frame: raw coordinates
     assert rel(X, tps_reference(V[idx], f[idx], V)) < 1e-8
 
@@ -116,7 +116,7 @@ def test_smoothing_is_the_weighted_penalised_fit(sphere):
     f = (np.sin(2 * V[:, 0]) + V[:, 2])[:, None]
     w = np.linspace(0.5, 2.0, idx.size)
     lam = 0.01
-    X, rep = thin_plate(V, V[idx], f[idx], smoothing=lam, sample_weights=w)
+    X, rep = thin_plate_rbf(V, V[idx], f[idx], smoothing=lam, sample_weights=w)
     c, s = normalised(V)
     ref = tps_reference((V[idx] - c) / s, f[idx], (V - c) / s, lam=lam, w=w)
     assert rep["smoothing"] == lam and rep["scale"] == s
@@ -128,7 +128,7 @@ def test_large_smoothing_gives_the_weighted_affine_least_squares_fit(sphere):
     V, F, idx = sphere
     y = np.sin(3 * V[idx, 0]) + V[idx, 1] ** 2
     w = np.linspace(1.0, 3.0, idx.size)
-    X, _ = thin_plate(V, V[idx], y[:, None], smoothing=1e12, sample_weights=w)
+    X, _ = thin_plate_rbf(V, V[idx], y[:, None], smoothing=1e12, sample_weights=w)
     A = np.hstack([np.ones((idx.size, 1)), V[idx]])
     coef = np.linalg.lstsq(A * np.sqrt(w)[:, None], y * np.sqrt(w), rcond=None)[0]
     assert rel(X[:, 0], np.hstack([np.ones((len(V), 1)), V]) @ coef) < 1e-6
@@ -169,13 +169,13 @@ def test_bounds_and_auto_smoothing_are_refused(sphere):
     with pytest.raises(OptionError, match="smoothing"):
         reconstruct(V, F, idx, y, method="rbf", sample_weights=np.ones(idx.size))
     with pytest.raises(OptionError):
-        thin_plate(V, V[idx], y[:, None], smoothing=-1.0)
+        thin_plate_rbf(V, V[idx], y[:, None], smoothing=-1.0)
 
 
 def test_coinciding_sample_positions_are_a_solve_error():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.0, 0, 0]])
     with pytest.raises(SolveError, match="singular"):
-        thin_plate(V, V[[0, 1, 2, 4]], np.array([[0.0], [1.0], [2.0], [3.0]]))
+        thin_plate_rbf(V, V[[0, 1, 2, 4]], np.array([[0.0], [1.0], [2.0], [3.0]]))
 
 
 def test_the_frame():

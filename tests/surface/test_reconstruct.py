@@ -271,8 +271,8 @@ def test_iterate_converges_from_gvf_and_random_starts(partition, seed):
     its = {}
     for init in ("gvf", "random"):
         r = reconstruct(V, F, idx, vals, partition=partition, solver="iterate", init=init, tol=1e-12, seed=seed)
-        assert r.report["harmonic"]["solver"] == "iterate"
-        its[init] = r.report["harmonic"]["iterations"]
+        assert r.report["fill"]["solver"] == "iterate"
+        its[init] = r.report["fill"]["iterations"]
         assert len(its[init]) == 1 and its[init][0] > 1
         np.testing.assert_allclose(r.values, direct.values, rtol=0, atol=1e-8)
     # GVF starts are not reliably faster (e.g. tree, seed 0: more sweeps than random): not asserted
@@ -296,7 +296,7 @@ def test_on_empty_nan(method, partition, solver):
     assert np.isfinite(r.values[:16]).all()
     np.testing.assert_allclose(r.values[idx], vals, rtol=0, atol=1e-12)
     if method != "gvf":
-        assert r.report["harmonic"]["empty_components"][0]["vertices"] == 9
+        assert r.report["fill"]["empty_components"][0]["vertices"] == 9
 
 
 @pytest.mark.parametrize("method", ["gvf-harmonic", "harmonic"])

@@ -53,17 +53,22 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import maximum_bipartite_matching
 
+from ..deprecation import renamed
 from ..errors import SampleError, SolveError
 from ..tolerances import TOL
 from .faces import Faces
 
-__all__ = ["MAX_ITERATIONS", "as_bounds", "solve_bounded", "check_samples"]
+__all__ = ["MAX_ITERATIONS", "bounds_per_field", "solve_bounded", "check_samples"]
+
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`): ``as_bounds`` is
+#: :func:`manifill.surface.energy_fill.as_bounds`'s name (the option ``bounds=``); here, the per-field arrays.
+__getattr__ = renamed(__name__, {"as_bounds": "manifill.linalg.active_set:bounds_per_field"})
 
 #: Default cap on the active-set iterations (face solves) of one field.
 MAX_ITERATIONS = 100
 
 
-def as_bounds(lo, hi, p):
+def bounds_per_field(lo, hi, p):
     """Validate the bounds: scalars or ``(p,)`` per field; None is unbounded on that side.
 
     Parameters
@@ -85,7 +90,7 @@ def as_bounds(lo, hi, p):
 
     Examples
     --------
-    >>> as_bounds(0.0, None, 2)
+    >>> bounds_per_field(0.0, None, 2)
     (array([0., 0.]), array([inf, inf]))
     """
     out = []
@@ -132,7 +137,7 @@ def solve_bounded(q, vals, lo, hi, *, linear=None, x0=None, beq=None, maxiter=MA
     vals : (k, p) float numpy array
         Validated values at ``q.idx``.
     lo, hi : (p,) float numpy arrays
-        Validated bounds (:func:`as_bounds`), ``-inf`` / ``inf`` for none.
+        Validated bounds (:func:`bounds_per_field`), ``-inf`` / ``inf`` for none.
     linear, x0, beq : optional
         As for :meth:`QuadraticSolver.solve`.
     maxiter : int, optional

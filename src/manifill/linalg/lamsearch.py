@@ -6,11 +6,10 @@ its own minimiser, found among the grid and its own refinement points only.
 """
 
 
-import importlib
-import warnings
 
 import numpy as np
 
+from ..deprecation import renamed
 from ..errors import OptionError
 
 __all__ = ["check_lam", "log_grid", "as_grid"]
@@ -51,13 +50,5 @@ def as_grid(lams, what="lams"):
     return np.unique(grid)
 
 
-#: Public names moved, kept one release with a warning: old name -> their new home.
-MOVED = {"grid_search": "manifill.linalg.search"}
-
-
-def __getattr__(name):
-    if name in MOVED:
-        warnings.warn(f"manifill.linalg.lamsearch.{name} is now {MOVED[name]}.{name}; the old place goes in the next "
-                      f"release", DeprecationWarning, stacklevel=2)
-        return getattr(importlib.import_module(MOVED[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+#: Public names moved, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"grid_search": "manifill.linalg.search:grid_search"})

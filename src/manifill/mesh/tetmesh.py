@@ -33,15 +33,19 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import MeshError
+from ..deprecation import renamed
 from ..validate import as_tets, bbox_diagonal, check_option, unit_scale
 from .edges import EdgeIndex
 from .gradients import tet_gradient_operator
 
-__all__ = ["WEIGHTS", "cell_width", "tet_laplacian", "assemble_tet_laplacian", "tet_mass_matrix",
+__all__ = ["TET_WEIGHTS", "cell_width", "tet_laplacian", "assemble_tet_laplacian", "tet_mass_matrix",
            "tet_gradient_root", "tet_volumes", "negative_tets"]
 
 #: Stiffness weights of tetrahedra.
-WEIGHTS = ("cotan", "uniform")
+TET_WEIGHTS = ("cotan", "uniform")
+
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"WEIGHTS": "manifill.mesh.tetmesh:TET_WEIGHTS"})
 
 #: The corner pairs of a tet's six edges, in the column order used below.
 _PAIRS = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
@@ -215,7 +219,7 @@ def tet_laplacian(V, T, *, weights="cotan"):
     >>> L.nnz  # the zero weights between corners 1, 2, 3 are stored
     16
     """
-    check_option("weights", weights, WEIGHTS)
+    check_option("weights", weights, TET_WEIGHTS)
     V, T = as_tets(V, T, allow_degenerate=weights == "uniform", allow_unreferenced=True)
     return assemble_tet_laplacian(V, T, weights)
 

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..errors import OptionError
-from ..mesh.tetmesh import WEIGHTS as FILL_WEIGHTS
+from ..mesh.tetmesh import TET_WEIGHTS
 from ..validate import as_mesh, check_option
 from ..validate.constraints import Flag, Number, OneOf, check
 from .fill import AUTO_DIRECT_MAX, FILL_SOLVERS, fill_memory, tet_fill_memory
@@ -42,7 +42,7 @@ TET_FILL_SOLVERS = ("auto", "amg", "direct")
 VOLUME_CONSTRAINTS = {
     "form": [OneOf(*FORMS)], "resolution": [Number(lo=2)], "connectivity": [OneOf(*CONNECTIVITY)],
     "max_volume": [None, Number(lo=0, lo_open=True)], "fill_solver": [OneOf(*FILL_SOLVERS)],
-    "fill_weights": [OneOf(*FILL_WEIGHTS)], "allow_open": [Flag()],
+    "fill_weights": [OneOf(*TET_WEIGHTS)], "allow_open": [Flag()],
 }
 
 

@@ -38,10 +38,11 @@ from ..errors import OptionError, SampleError
 from ..memory import check_fits
 from ..mesh.laplacian import WEIGHTS as SURFACE_WEIGHTS
 from ..mesh.objects import mesh_arrays
-from ..mesh.tetmesh import WEIGHTS as FILL_WEIGHTS
+from ..mesh.tetmesh import TET_WEIGHTS
 from ..progress import tick
 from ..surface.methods.registry import method_of
 from ..surface.reconstruct import reconstruct, reconstruct_surface
+from ..deprecation import renamed
 from ..validate import as_mask, as_samples, as_tets, as_voxels, check_option
 from .boundary import (boundary_voxels, digital_surface, digital_surface_graph, surface_to_points,
                        surface_vertex_of_voxels)
@@ -56,10 +57,13 @@ from .voxels import as_connectivity, as_origin, as_spacing, voxel_centres
 from .voxelize import voxelize
 
 __all__ = ["VolumeReconstruction", "reconstruct_volume", "reconstruct_volume_tets", "reconstruct_volume_mask",
-           "FILL_WEIGHTS", "MASK_WEIGHTS"]
+           "MASK_WEIGHTS"]
 
 #: The surface weights a digital surface can use (it has no triangles for cotangents); its default.
 MASK_WEIGHTS = ("uniform",)
+
+#: Public names moved, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"FILL_WEIGHTS": "manifill.mesh.tetmesh:TET_WEIGHTS"})
 #: Options of :func:`manifill.reconstruct` a voxel mask cannot take: its samples are voxels, not positions.
 _POSITION_OPTIONS = ("max_distance",)
 #: Keywords of ``reconstruct_surface`` that are the functions' own, not the caller's.
@@ -95,14 +99,14 @@ def _check_fill(form, fill_solver, fill_weights="cotan"):
 
     ``fill_solver`` from :data:`~manifill.solid.fill.FILL_SOLVERS` (voxels) or
     :data:`~manifill.solid.estimates.TET_FILL_SOLVERS` (tets); ``fill_weights`` from
-    :data:`FILL_WEIGHTS`, and at its default for voxels (their weights come from the spacing).
+    :data:`manifill.mesh.tetmesh.TET_WEIGHTS`, and at its default for voxels (their weights come from the spacing).
     """
     solvers = FILL_SOLVERS if form == "voxels" else TET_FILL_SOLVERS
     check_fill_solver(fill_solver, solvers)
     check_option("fill_solver", fill_solver, solvers)
     if form == "voxels":
         _check_form_options("voxels", fill_weights=(fill_weights, "cotan"))
-    check_option("fill_weights", fill_weights, FILL_WEIGHTS)
+    check_option("fill_weights", fill_weights, TET_WEIGHTS)
 
 
 def _refuse_own(options):
@@ -183,8 +187,8 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     >>> r.values.shape, bool(np.isnan(r.values[0, 0, 0]))
     ((26, 26, 26), True)
     """
-    check_volume_options(form=form, resolution=resolution, connectivity=connectivity, max_volume=max_volume, allow_open=allow_open,
-                         fill_weights=fill_weights)
+    check_volume_options(form=form, resolution=resolution, connectivity=connectivity, max_volume=max_volume,
+                         allow_open=allow_open, fill_weights=fill_weights)
     _check_fill(form, fill_solver, fill_weights)
     if form == "tets":
         _check_form_options("tets", resolution=(resolution, 128), connectivity=(connectivity, 6),

@@ -15,12 +15,16 @@ tetrahedralised and oriented like unit ones.
 
 import numpy as np
 
-from ..mesh.tetmesh import (WEIGHTS, negative_tets, tet_gradient_root, tet_laplacian, tet_mass_matrix,
+from ..mesh.tetmesh import (negative_tets, tet_gradient_root, tet_laplacian, tet_mass_matrix,
                             tet_volumes)
+from ..deprecation import renamed
 from ..validate import as_cells, as_mesh, as_tets, unit_scale
 
-__all__ = ["WEIGHTS", "tet_laplacian", "tet_mass_matrix", "tet_gradient_root", "boundary_faces", "boundary_vertices",
+__all__ = ["tet_laplacian", "tet_mass_matrix", "tet_gradient_root", "boundary_faces", "boundary_vertices",
            "tet_volumes", "negative_tets", "rows_once", "surface_volume", "unit_volume"]
+
+#: Public names moved, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"WEIGHTS": "manifill.mesh.tetmesh:TET_WEIGHTS"})
 
 #: The faces of a positively oriented tet, outward, each opposite the corner of its row.
 _OUTWARD = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])

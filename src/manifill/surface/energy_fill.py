@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError, SolveError
-from ..linalg.active_set import as_bounds as bounds_per_field
+from ..linalg.active_set import bounds_per_field
 from ..linalg.active_set import check_samples
 from ..linalg.backends import AUTO_DIRECT_FIELDS, AUTO_DIRECT_MAX, auto_backend, make_linear_solver
 from ..linalg.quadratic import QuadraticSolver

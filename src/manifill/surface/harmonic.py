@@ -16,7 +16,7 @@ import time
 from ..errors import OptionError
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..mesh.laplacian import WEIGHTS, assemble_laplacian
-from ..mesh.tetmesh import WEIGHTS as TET_WEIGHTS
+from ..mesh.tetmesh import TET_WEIGHTS
 from ..mesh.tetmesh import assemble_tet_laplacian, cell_width
 from ..validate import as_indices, as_laplacian, as_mesh, as_tets, check_option, unit_scale
 

@@ -7,7 +7,7 @@ its group and nothing copies the options by name again. The groups:
 - ``fill`` (:class:`FillOptions`): how the surface is cut and filled -- ``partition``,
   ``weights``, ``distance``, ``curve_values``, ``solver``, ``iteration``, ``init``,
   ``seed``, ``tol``, ``maxiter``, ``on_empty``;
-- ``step1`` (:class:`CheckOptions`): Step 1's ``levels`` and whether it runs (``check``);
+- ``step1`` (:class:`Step1Options`): Step 1's ``levels`` and whether it runs (``check``);
 - ``fit`` (:class:`FitOptions`): ``bounds``, ``bounds_mode``, ``smoothing``, ``sample_weights``;
 - ``points`` (:class:`PointOptions`): how samples are read -- ``duplicates``,
   ``max_distance``;
@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from ..deprecation import renamed
 from ..errors import OptionError
 from ..linalg.backends import ITERATIONS, SOLVERS
 from ..mesh.graph import DISTANCES
@@ -36,8 +37,11 @@ from .fill import INITS
 from .harmonic import ON_EMPTY
 from .partition import PARTITIONS
 
-__all__ = ["Options", "FillOptions", "CheckOptions", "FitOptions", "PointOptions", "UncertaintyOptions",
+__all__ = ["Options", "FillOptions", "Step1Options", "FitOptions", "PointOptions", "UncertaintyOptions",
            "DUPLICATES", "UNTRUSTED", "BOUNDS_MODES", "OPTION_NAMES", "CONSTRAINTS"]
+
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`): the group ``step1``'s class.
+__getattr__ = renamed(__name__, {"CheckOptions": "manifill.surface.options:Step1Options"})
 
 #: What several samples on one vertex with different values do: refuse, or average.
 DUPLICATES = ("error", "mean")
@@ -85,7 +89,7 @@ class FillOptions:
 
 
 @dataclass(frozen=True)
-class CheckOptions:
+class Step1Options:
     """Step 1: the value ``levels`` and whether the check runs (None: for up to a few fields)."""
 
     levels: object = None
@@ -158,7 +162,7 @@ class UncertaintyOptions:
 
 
 #: The groups of :class:`Options` by attribute name, and each flat keyword's group.
-GROUPS = {"fill": FillOptions, "step1": CheckOptions, "fit": FitOptions, "points": PointOptions,
+GROUPS = {"fill": FillOptions, "step1": Step1Options, "fit": FitOptions, "points": PointOptions,
           "uq": UncertaintyOptions}
 OPTION_GROUP = {f.name: g for g, cls in GROUPS.items() for f in fields(cls)}
 #: Every keyword :meth:`Options.build` takes (besides ``method``).
@@ -200,7 +204,7 @@ class Options:
     method: object = None
     preset: object = None
     fill: FillOptions = field(default_factory=FillOptions)
-    step1: CheckOptions = field(default_factory=CheckOptions)
+    step1: Step1Options = field(default_factory=Step1Options)
     fit: FitOptions = field(default_factory=FitOptions)
     points: PointOptions = field(default_factory=PointOptions)
     uq: UncertaintyOptions = field(default_factory=UncertaintyOptions)

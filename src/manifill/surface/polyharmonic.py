@@ -32,19 +32,24 @@ from ..linalg.backends import direct_factoriser
 from ..linalg.energies import polyharmonic_energy
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
 from ..mesh.laplacian import MASS, assemble_laplacian, mass_matrix
-from ..mesh.tetmesh import assemble_tet_laplacian, cell_width, tet_mass_matrix
+from ..deprecation import renamed
+from ..mesh.tetmesh import TET_WEIGHTS, assemble_tet_laplacian, cell_width, tet_mass_matrix
 from ..errors import MeshError
 from ..memory import available_bytes, lu_memory
 from ..tolerances import TOL
 from ..validate import as_indices, as_mesh, as_tets, check_option, unit_scale
 
-__all__ = ["PolyharmonicSolver", "biharmonic", "energy_matrix", "positions", "polyharmonic_matrix", "SOLVERS",
-           "WEIGHTS", "MASS"]
+__all__ = ["PolyharmonicSolver", "biharmonic", "energy_matrix", "positions", "polyharmonic_matrix", "POLYHARMONIC_SOLVERS",
+           "MASS"]
 
 #: Solvers of the reduced system (see :mod:`manifill.linalg.backends`).
-SOLVERS = ("auto", "direct", "amg")
-#: Stiffness weights (``uniform`` ignores geometry; no linear precision).
-WEIGHTS = ("cotan", "uniform")
+POLYHARMONIC_SOLVERS = ("auto", "direct", "amg")
+# the stiffness weights: manifill.mesh.tetmesh.TET_WEIGHTS, those of triangles and tets alike (``uniform`` ignores
+# geometry; no linear precision)
+
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"SOLVERS": "manifill.surface.polyharmonic:POLYHARMONIC_SOLVERS",
+                                 "WEIGHTS": "manifill.mesh.tetmesh:TET_WEIGHTS"})
 # MASS (imported): the lumped masses of triangles, the default first; tets always use the quarter volume
 
 
@@ -133,7 +138,7 @@ def polyharmonic_matrix(V, F, *, k=2, weights="cotan", mass=None):
     >>> A.shape, bool(abs(A @ np.ones(42)).max() < 1e-12)
     ((42, 42), True)
     """
-    check_option("weights", weights, WEIGHTS)
+    check_option("weights", weights, TET_WEIGHTS)
     if mass is not None:
         check_option("mass", mass, MASS)
     if cell_width(F) == 4:
@@ -235,7 +240,7 @@ class PolyharmonicSolver(QuadraticSolver):
                  tol=None, maxiter=None):
         t0 = time.perf_counter()
         check_option("on_empty", on_empty, ON_EMPTY)
-        check_option("solver", solver, SOLVERS)
+        check_option("solver", solver, POLYHARMONIC_SOLVERS)
         A = polyharmonic_matrix(V, F, k=k, weights=weights, mass=mass)
         idx = as_indices(idx, A.shape[0], what="idx")
         t1 = time.perf_counter()

@@ -30,12 +30,16 @@ import math
 
 import numpy as np
 
+from ..deprecation import renamed
 from ..errors import OptionError, SolveError
 from ..memory import check_fits
 from ..tolerances import TOL
 from scipy.interpolate import RBFInterpolator
 
-__all__ = ["thin_plate", "affine_frame"]
+__all__ = ["thin_plate_rbf", "affine_frame"]
+
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"thin_plate": "manifill.surface.rbf:thin_plate_rbf"})
 
 #: Kernel-matrix entries evaluated at once (rows of vertices times samples): about 32 MB.
 CHUNK_ENTRIES = 1 << 22
@@ -86,7 +90,7 @@ def _span(P):
     return None if keep.all() and len(s) == P.shape[1] else Wt[keep]
 
 
-def thin_plate(V, X, vals, *, smoothing=None, sample_weights=None):
+def thin_plate_rbf(V, X, vals, *, smoothing=None, sample_weights=None):
     """The thin-plate spline through values at positions ``X``, evaluated at ``V``.
 
     Parameters
@@ -123,7 +127,7 @@ def thin_plate(V, X, vals, *, smoothing=None, sample_weights=None):
     >>> V, F = icosphere(2)
     >>> idx = np.arange(0, 162, 9)
     >>> f = 1.0 + V[:, 0] - 2.0 * V[:, 2]
-    >>> X, rep = thin_plate(V, V[idx], f[idx, None])
+    >>> X, rep = thin_plate_rbf(V, V[idx], f[idx, None])
     >>> bool(np.allclose(X[:, 0], f)), rep["dims"]
     (True, 3)
     """

@@ -21,10 +21,10 @@ on a built Surface. The result is a :class:`Reconstruction`, of the result famil
 """
 
 import time
-import warnings
 
 import numpy as np
 
+from ..deprecation import renamed
 from ..progress import tick
 from .engine import reconstruct_surface
 from .methods.base import CHECK_FIELDS
@@ -202,13 +202,5 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
     return r
 
 
-#: Public names renamed, kept one release with a warning: old name -> new name.
-RENAMED = {"METHODS": "METHOD_NAMES"}
-
-
-def __getattr__(name):
-    if name in RENAMED:
-        warnings.warn(f"manifill.surface.reconstruct.{name} is now {RENAMED[name]}; the old name goes in the next "
-                      f"release", DeprecationWarning, stacklevel=2)
-        return globals()[RENAMED[name]]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+#: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`).
+__getattr__ = renamed(__name__, {"METHODS": "manifill.surface.reconstruct:METHOD_NAMES"})

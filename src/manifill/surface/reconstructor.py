@@ -254,7 +254,7 @@ class Reconstructor:
                                 points=points, fields=self.fields, prepared=self._prepared)
         r.report["default"] = self.default
         r.source = self._source
-        smoothed = r.report.get("harmonic", {}).get("smoothing")
+        smoothed = r.report.get("fill", {}).get("smoothing")
         if smoothed is not None:  # residuals in the caller's rows and shape
             at = r.points.interpolate(r.values) if points is not None else r.values[self._raw]
             smoothed["residuals"] = (at - given)[:, 0] if squeeze else at - given

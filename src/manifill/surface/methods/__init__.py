@@ -5,7 +5,7 @@
 - :mod:`.pipeline`: ``gvf-harmonic``, the paper's Steps 1-6;
 - :mod:`.gvf`: ``gvf``, the gradually varied fit of every vertex;
 - :mod:`.energy`: ``harmonic``, ``biharmonic``, ``triharmonic``;
-- :mod:`.thin_plate`: ``rbf``, the thin-plate spline in space;
+- :mod:`.rbf`: ``rbf``, the thin-plate spline in space;
 - :mod:`.matern`: ``gp``, the Matérn Gaussian process;
 - :mod:`.auto`: ``auto``, cross-validation's choice;
 - :mod:`.default`: the default preset (``method=None``);

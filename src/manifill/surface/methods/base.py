@@ -28,6 +28,7 @@ import numpy as np
 
 from ...errors import OptionError, SampleError
 from ...progress import tick
+from ...report import Report
 from ..gp import trust_mask
 from ..gradual import check_gradual, violation_message
 from ..points import points_report
@@ -163,8 +164,8 @@ class Run:
         self.t0 = time.perf_counter()
         self.before = sum(seconds.values())
         n = surface.n
-        self.report = {"method": options.method, "curve_values": None, "samples": int(idx.size), "vertices": n,
-                       "seconds": seconds}
+        self.report = Report(method=options.method, curve_values=None, samples=int(idx.size), vertices=n,
+                             seconds=seconds)
         if options.preset is not None:
             self.report["preset"] = options.preset
         self.checks = []

@@ -16,7 +16,7 @@ from ...linalg.gp import as_gp_options
 from ..energy_fill import energy_fill
 from ..gp import energy_uncertainty
 from .base import Method
-from .pipeline import harmonic_fill
+from .pipeline import patch_fill
 
 __all__ = ["Energy", "HARMONIC", "BIHARMONIC", "TRIHARMONIC"]
 
@@ -49,14 +49,14 @@ class Energy(Method):
         if plain and o.fit.bounds is None and o.fit.smoothing is None and not (points and points.inside):
             # the harmonic fill with the samples (or the points' vertices) fixed: Steps 5-6 on their own
             b, bc = (run.idx, run.vals) if points is None else (points.idx, points.vals)
-            return harmonic_fill(run, b, bc), None
+            return patch_fill(run, b, bc), None
         with run.step(f"{self.name} fill", "harmonic"):
             idx, vals, Aeq, beq, w = run.idx, run.vals, None, None, o.fit.sample_weights
             if points is not None:  # the points themselves: vertex constraints and barycentric rows
                 idx, vals, w = points.idx, points.vals, None if w is None else points.weights(w)
                 Aeq, beq = (points.Aeq, points.beq) if points.inside else (None, None)
             f = o.fill
-            values, run.report["harmonic"] = energy_fill(
+            values, run.report["fill"] = energy_fill(
                 run.surface, idx, vals, k=self.k, weights=f.weights, solver=f.solver, on_empty=f.on_empty,
                 fit=replace(o.fit, sample_weights=w), rows=None if Aeq is None else (Aeq, beq), fields=run.fields,
                 prepared=run.prepared, tol=f.tol, maxiter=f.maxiter, energy=self.energy_of)
@@ -67,7 +67,7 @@ class Energy(Method):
         w = o.fit.sample_weights
         return energy_uncertainty(
             run.surface, self.k, values, (run.idx, run.vals, points), weights=o.fill.weights,
-            fill_report=run.report.get("harmonic", {}), gp=as_gp_options(o.uq.gp),
+            fill_report=run.report.get("fill", {}), gp=as_gp_options(o.uq.gp),
             sample_weights=w if w is None or points is None else points.weights(w),
             solver="direct" if o.fill.solver == "iterate" else o.fill.solver)
 

@@ -68,7 +68,7 @@ class Pipeline(Method):
         # Steps 5-6: the harmonic fill of every patch (bounded: the minimiser within the bounds, an active set that
         # stops at once where the maximum principle holds, i.e. without negative cotangent weights)
         largest = max(part.report["patch_sizes"] or [0])
-        values = harmonic_fill(run, b, bc, largest=largest, lohi=lohi)
+        values = patch_fill(run, b, bc, largest=largest, lohi=lohi)
         return values, None
 
     @staticmethod
@@ -82,12 +82,12 @@ class Pipeline(Method):
         return values_on_curves(surface, part, idx, vals, method=cv, checks=run.checks)
 
 
-def harmonic_fill(run, b, bc, *, largest=None, lohi=None):
+def patch_fill(run, b, bc, *, largest=None, lohi=None):
     """Steps 5-6 with the values ``bc`` at ``b`` fixed (the curves, or the samples alone); ``(n, p)`` values."""
     o, surface = run.options, run.surface
     f = o.fill
     with run.step("harmonic fill", "harmonic"):
-        values, run.report["harmonic"] = fill_patches(
+        values, run.report["fill"] = fill_patches(
             surface, b, bc, weights=f.weights, solver=f.solver, on_empty=f.on_empty,
             x0=lambda: start_values(f.init, surface, run.idx, run.vals, checks=run.checks, seed=f.seed),
             bounds=lohi, fields=run.fields, prepared=run.prepared, largest=largest, iteration=f.iteration, tol=f.tol,

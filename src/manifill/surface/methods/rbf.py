@@ -1,6 +1,6 @@
 """``method='rbf'``: the thin-plate spline on the positions, for fields that live in space.
 
-SciPy's thin-plate RBF through the samples (:func:`manifill.surface.rbf.thin_plate`):
+SciPy's thin-plate RBF through the samples (:func:`manifill.surface.rbf.thin_plate_rbf`):
 through the closest surface points of samples given as positions when every point was
 located, else through their nearest vertices. ``smoothing`` a number gives a smoothing
 spline; it has no mesh energy to minimise within ``bounds`` and refuses them. Linear in the
@@ -10,7 +10,7 @@ values unless ``smoothing='auto'``.
 import numpy as np
 
 from ...errors import OptionError
-from ..rbf import thin_plate
+from ..rbf import thin_plate_rbf
 from .base import Method
 
 __all__ = ["RBF", "ThinPlate"]
@@ -64,7 +64,7 @@ class ThinPlate(Method):
                 X[points.constraint] = points.located.points
                 if w is not None:
                     w = points.weights(w)
-            values, run.report["rbf"] = thin_plate(run.surface.V, X, Y, smoothing=run.options.fit.smoothing,
+            values, run.report["rbf"] = thin_plate_rbf(run.surface.V, X, Y, smoothing=run.options.fit.smoothing,
                                                    sample_weights=w)
         return values, None
 
@@ -76,7 +76,7 @@ def _by_piece(run, piece, w):
     reports = []
     for q in np.unique(piece[idx]):
         rows, mine = np.flatnonzero(piece == q), piece[idx] == q
-        out[rows], rep = thin_plate(V[rows], V[idx[mine]], vals[mine], smoothing=run.options.fit.smoothing,
+        out[rows], rep = thin_plate_rbf(V[rows], V[idx[mine]], vals[mine], smoothing=run.options.fit.smoothing,
                                     sample_weights=None if w is None else np.asarray(w)[mine])
         reports.append(rep)
     run.report["rbf"] = {**reports[0], "pieces": len(reports)}

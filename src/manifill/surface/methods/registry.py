@@ -1,7 +1,7 @@
 """The registry of reconstruction methods: every method by name, the presets, and :func:`configure`.
 
 A method is one object in one module of this package (:mod:`.pipeline`, :mod:`.gvf`,
-:mod:`.energy`, :mod:`.thin_plate`, :mod:`.matern`, :mod:`.auto`), listed once in
+:mod:`.energy`, :mod:`.rbf`, :mod:`.matern`, :mod:`.auto`), listed once in
 :data:`METHODS`; a preset (:mod:`.default`) is a named configuration of one. Generic code
 looks a method up here (:func:`method_of`) and asks it what it can do; this module is the
 one place where method names are compared.
@@ -25,7 +25,7 @@ from .hessian import HESSIAN, HESSIAN_CURVED
 from .gvf import GVF
 from .matern import GP
 from .pipeline import PIPELINE
-from .thin_plate import RBF
+from .rbf import RBF
 
 __all__ = ["METHODS", "PRESETS", "method_of", "configure", "names", "for_surface"]
 

@@ -54,10 +54,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import OptionError, SampleError, SolveError
-from ..mesh.topology import pattern_components
 from ..validate import as_indices, as_laplacian, as_values, check_option
-from .active_set import MAX_ITERATIONS, as_bounds, solve_bounded
+from .active_set import MAX_ITERATIONS, bounds_per_field, solve_bounded
 from .backends import SOLVERS, make_linear_solver
+from .dirichlet import split_rows, unanchored
 
 __all__ = ["ON_EMPTY", "QuadraticSolver", "min_quad_with_fixed"]
 
@@ -232,59 +232,11 @@ class QuadraticSolver:
         self.Aeq = Aeq
         self.eq_multipliers = None
         t2 = time.perf_counter()
-        ncomp, labels = pattern_components(A, symmetric=symmetric_pattern)
-        anchors = labels[self.idx]
-        if Aeq is not None:  # a row anchors every component it touches
-            anchors = np.concatenate([anchors, labels[Aeq.indices[Aeq.data != 0]]])
-        has_fixed = np.bincount(anchors, minlength=ncomp) > 0
-        self.empty = ~has_fixed[labels]
-        if on_empty == "solve":  # a positive definite energy: such components have a unique minimiser too
-            has_fixed[:] = True
-            self.empty[:] = False
-        empty_components = []
-        if self.empty.any():
-            for c in np.flatnonzero(~has_fixed):
-                members = np.flatnonzero(labels == c)
-                empty_components.append({"vertices": int(members.size), "example_vertex": int(members[0])})
-            empty_components.sort(key=lambda e: -e["vertices"])
-            if on_empty == "error":
-                e = empty_components[0]
-                more = f" (and {len(empty_components) - 1} more)" if len(empty_components) > 1 else ""
-                raise SolveError(
-                    f"a connected component of {e['vertices']} vertices (e.g. vertex {e['example_vertex']}) "
-                    f"has no fixed vertex{more}, so its values are undetermined; add a sample there, "
-                    f"or pass on_empty='nan' (CLI: --on-empty nan) to leave it NaN"
-                )
+        ncomp, self.empty, empty_components = unanchored(A, self.idx, Aeq, on_empty, symmetric_pattern)
         known = self.empty.copy()
         known[self.idx] = True
         self.unknown = np.flatnonzero(~known)
-        # A_II and A_Ib in one pass over the unknowns' rows, columns renumbered by one map: unknown j -> its
-        # number, fixed j -> -2 - its place in idx, empty j -> -1; rows keep their order, so sorted stays sorted
-        N, k = self.unknown.size, self.idx.size
-        it = np.int32 if max(A.nnz, n) < 2**31 - 1 else np.int64
-        code = np.full(n, -1, dtype=it)
-        code[self.unknown] = np.arange(N, dtype=it)
-        code[self.idx] = -2 - np.arange(k, dtype=it)
-        starts = A.indptr[self.unknown]
-        lens = (A.indptr[self.unknown + 1] - starts).astype(it, copy=False)
-        row_ptr = np.zeros(N + 1, dtype=np.int64)
-        np.cumsum(lens, out=row_ptr[1:])
-        at = slice(None) if N == n else (  # the unknown rows' entries, row after row
-            np.repeat((starts - row_ptr[:-1]).astype(it), lens) + np.arange(row_ptr[-1], dtype=it))
-        c, data = code[A.indices[at]], A.data[at]
-        del at, code
-        parts = []
-        for inner, keep in ((True, c >= 0), (False, c <= -2)):
-            counted = np.zeros(c.size + 1, dtype=it)
-            np.cumsum(keep, out=counted[1:])
-            ptr = counted[row_ptr]
-            del counted
-            cols = c[keep] if inner else -2 - c[keep]
-            part = sp.csr_array((data[keep], cols, ptr), shape=(N, N if inner else k))
-            part.has_sorted_indices = bool(A.has_sorted_indices) and inner
-            parts.append(part)
-        del c, data
-        self._A_II, self._A_Ib = parts
+        self._A_II, self._A_Ib = split_rows(A, self.unknown, self.idx)
         K = self._A_II
         if Aeq is not None:
             self._Aeq_I, self._Aeq_b = Aeq[:, self.unknown].tocsr(), Aeq[:, self.idx].tocsr()
@@ -374,7 +326,7 @@ class QuadraticSolver:
         vals, squeeze = as_values(vals, self.idx.size, what="vals")
         if lo is not None or hi is not None:
             t0 = time.perf_counter()
-            lo, hi = as_bounds(lo, hi, vals.shape[1])
+            lo, hi = bounds_per_field(lo, hi, vals.shape[1])
             X, bounds = solve_bounded(self, vals, lo, hi, linear=linear, x0=x0, beq=beq, maxiter=bound_iterations)
             self.report["bounds"] = bounds
             self.report["seconds"]["solve"] = time.perf_counter() - t0

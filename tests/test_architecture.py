@@ -14,7 +14,7 @@ import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "src" / "manifill"
 ROOT = PKG.parent.parent
-MAX_LINES = 500
+MAX_LINES = 450  # below the cap the old modules grew to, so the cap is not the design
 #: lines of code in one function or method (docstrings, blank and comment-only lines not counted)
 MAX_FUNCTION_LINES = 100
 #: parameters of one function or method (self/cls not counted; *args and **kwargs one each)
@@ -24,7 +24,7 @@ MAX_PARAMETERS = 12
 #: package's ``__init__.py`` (the flat public API, which re-exports every layer) and ``__main__.py``:
 #: no module imports them.
 LAYERS = ["base", "mesh", "linalg", "surface", "solid", "io", "viz", "demo", "adapters", "cli", "cluster", "top"]
-BASE = {"errors", "tolerances", "validate", "memory", "progress", "results", "report", "version"}
+BASE = {"errors", "tolerances", "validate", "memory", "progress", "results", "report", "version", "deprecation"}
 TOP = {"", "__main__", "console"}
 
 #: The only packages a function may import inside its body (lazily): optional extras, or slow to import

@@ -7,6 +7,7 @@ how the variance was computed, the std's range, the vertices ``trust`` marks).
 """
 
 import math
+import warnings
 
 import numpy as np
 
@@ -35,8 +36,6 @@ release")
         new = RENAMED_KEYS.get(key)
         if new is None or new not in self:
             raise KeyError(key)
-        import warnings
-
         warnings.warn(f"report[{key!r}] is now report[{new!r}] (the fill of every method); the old key goes in the "
                       f"next release", DeprecationWarning, stacklevel=2)
         return self[new]

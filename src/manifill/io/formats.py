@@ -1,11 +1,12 @@
 """The one registry of file formats: every suffix manifill reads or writes, its kind, reader, writer and what it keeps.
 
-Each format module registers its formats (:func:`register_format`): the meshes in :mod:`manifill.io.registry`,
-samples and values in :mod:`manifill.io.samples`, tetrahedra and grids in :mod:`manifill.io.solids`, time series
-in :mod:`manifill.io.series`, barriers in :mod:`manifill.io.points`. Reading and writing look a path up here
-(:func:`find_format`) and call the format's ``read`` or ``write``; the tables other modules show (``MESH_FORMATS``,
-``SAMPLE_FORMATS`` ...) are views of it (:func:`formats`). No code outside this module compares a suffix with a
-literal (a test greps for it): what differs between formats is an attribute of :class:`Format`.
+Each format module registers its formats (:func:`register_format`): meshes and point clouds in
+:mod:`manifill.io.mesh_formats`, samples and values in :mod:`manifill.io.sample_formats`, tetrahedra and grids in
+:mod:`manifill.io.solids`, time series in :mod:`manifill.io.series_write`, barriers in :mod:`manifill.io.points`.
+Reading and writing look a path up here (:func:`find_format`, :func:`lookup`) and call the format's ``read`` or
+``write``; the tables other modules show (``MESH_FORMATS``, ``SAMPLE_FORMATS`` ...) are views of it
+(:class:`FormatView`). No code outside this module compares a suffix with a literal (a test greps for it): what
+differs between formats is an attribute of :class:`Format`.
 
 The kinds:
 

@@ -1,14 +1,11 @@
-"""Meshes and fields on disk: one registry of formats, what each holds and which readers see its fields.
+"""Meshes and their fields on disk: read and write any mesh format through the one registry of formats.
 
-Every mesh format is one entry of :data:`MESH_FORMATS`: how manifill reads and writes
-it, whether it holds named per-vertex fields, which common readers see those
-fields, and whether reading it keeps the file's vertex numbering (STL does not:
-its reader merges the corners of its triangles). :func:`read_mesh_file` and
-:func:`write_mesh` dispatch on the extension to the readers and writers of
-:mod:`manifill.io.vtkxml_read`, :mod:`manifill.io.vtkxml_write`,
-:mod:`manifill.io.vtklegacy_read`, :mod:`manifill.io.vtklegacy_write`,
-:mod:`manifill.io.meshio_files` and :mod:`manifill.io.neuro`; FreeSurfer surfaces
-(``lh.pial``, ``rh.white``: no telling extension) are recognised by their first bytes.
+The formats themselves, their readers and writers and what each keeps (named per-vertex fields, which common
+readers see them, whether reading keeps the file's vertex numbering: STL's reader merges its corners), are
+:mod:`manifill.io.formats`' registry, the mesh formats registered by :mod:`manifill.io.mesh_formats`.
+:func:`read_mesh_file` and :func:`write_mesh` look a path up there; FreeSurfer surfaces (``lh.pial``,
+``rh.white``: no telling extension) are recognised by their first bytes. (The module keeps its name, ``registry``,
+from when it held the mesh table; :data:`MESH_FORMATS` is a view of the registry.)
 
 Field names and manifill's mask names are :mod:`manifill.io.field_names`'. Every
 write is atomic (:func:`manifill.io.files.atomic_path`); every read of a damaged
@@ -27,124 +24,16 @@ from ..errors import ManifillError, ReadError, WriteError
 from ..mesh.objects import mesh_arrays
 from ..validate import as_mesh, as_vertices, is_mesh_object
 from .field_names import stored_names
-from .files import PointsOnly, check_input_file, no_triangles, reading
-from .formats import Format, FormatView, find_format, register_format, suffix_list
-from .meshio_files import read_meshio, write_meshio
-from .neuro import read_freesurfer_surface, read_gifti, sniff
-from .points import read_csv_points, read_xyz
-from .vtklegacy_read import read_legacy
-from .vtklegacy_write import write_legacy
-from .vtkxml_read import read_polydata, read_unstructured
-from .vtkxml_write import write_polydata, write_unstructured
+from .files import PointsOnly, check_input_file
+from .formats import Format, find_format, suffix_list
+from .mesh_formats import CELL_WRITERS, FREESURFER, MESH_FORMATS, POINT_FORMATS  # noqa: F401 (shown here too)
+from .neuro import sniff
 
 __all__ = ["MESH_FORMATS", "POINT_FORMATS", "MeshFile", "FREESURFER", "mesh_format", "read_mesh",
            "read_mesh_file", "reading_once", "check_cells", "write_mesh", "write_cells", "format_note"]
 
 
 
-def _read_meshio(path, fmt):
-    return read_meshio(path, fmt)
-
-
-def _read_vtp(path, fmt):
-    return read_polydata(path)
-
-
-def _read_vtu(path, fmt):
-    return read_unstructured(path)
-
-
-def _read_legacy(path, fmt):
-    V, cells, point_data = read_legacy(path)
-    F = cells.get("triangle")
-    if F is None or len(F) == 0:
-        kinds = sorted(k for k, c in cells.items() if len(c))
-        no_triangles(path, kinds, None if "tetra" in kinds else V, point_data)
-    return V, F, point_data
-
-
-def _read_gifti(path, fmt):
-    return read_gifti(path)
-
-
-def _read_freesurfer(path, fmt):
-    V, F = read_freesurfer_surface(path)
-    return V, F, {}
-
-
-def _points_reader(read):
-    """A reader of points alone (``.xyz``, ``.csv``): ``F`` None, and refused where a mesh is asked."""
-
-    def read_points(path, fmt):
-        with reading(path, fmt.name):
-            P, point_data = read(path)
-        return P, None, point_data
-
-    return read_points
-
-
-def _write_vtp(path, V, kind, C, data, fmt):
-    write_polydata(path, V, None if kind == "vertex" else C, data)
-
-
-def _write_vtu(path, V, kind, C, data, fmt):
-    write_unstructured(path, V, C, data)
-
-
-def _write_legacy(path, V, kind, C, data, fmt):
-    write_legacy(path, V, kind, C, data)
-
-
-def _write_meshio(path, V, kind, C, data, fmt):
-    cells = [] if kind == "vertex" else [(kind, C.astype(np.int32))]  # a cloud's PLY: its vertices alone
-    write_meshio(path, V, cells, data, fmt.meshio)
-
-
-def ply_reserved(name):
-    """PLY's reader takes ``x``, ``y``, ``z`` for the positions, and a name must not start with a digit."""
-    return name in ("x", "y", "z") or name[0].isdigit()
-
-
-def vtk_reserved(name):
-    """Legacy VTK's reader takes a line starting ``METADATA`` (or ``NULL_ARRAY``) for a section of its own."""
-    return name.lower().startswith("metadata") or name == "NULL_ARRAY"
-
-
-#: The writers of cells (triangles, tetrahedra, a cloud's vertex cells) by format, shared by every kind that
-#: writes cells: ``write(path, V, cell kind, C, fields, format)``.
-CELL_WRITERS = {"vtp": _write_vtp, "vtu": _write_vtu, "legacy": _write_legacy, "meshio": _write_meshio}
-
-# the mesh formats: read(path, format) -> (V, F or None, point_data); write as CELL_WRITERS
-for _fmt in (
-    Format("VTU", "mesh", (".vtu",), _read_vtu, _write_vtu, fields=True, seen_by=("meshio", "pyvista"),
-           vectors=True),
-    Format("VTP", "mesh", (".vtp",), _read_vtp, _write_vtp, fields=True, seen_by=("pyvista",), vectors=True),
-    Format("legacy VTK", "mesh", (".vtk",), _read_legacy, _write_legacy, fields=True,
-           seen_by=("meshio", "pyvista"), vectors=True, plain_names=True, reserved=vtk_reserved),
-    Format("PLY", "mesh", (".ply",), _read_meshio, _write_meshio, fields=True, seen_by=("meshio",), columns=True,
-           plain_names=True, reserved=ply_reserved, meshio="ply"),
-    Format("OFF", "mesh", (".off",), _read_meshio, _write_meshio, meshio="off"),
-    Format("OBJ", "mesh", (".obj",), _read_meshio, _write_meshio, meshio="obj"),
-    Format("STL", "mesh", (".stl",), _read_meshio, _write_meshio, vertex_numbering=False, meshio="stl"),
-    Format("GIfTI", "mesh", (".gii",), _read_gifti, fields=True, seen_by=("nibabel",), extra="neuro"),
-    Format("XYZ points", "mesh", (".xyz",), _points_reader(read_xyz), cells=False),
-    Format("CSV points", "mesh", (".csv",), _points_reader(read_csv_points), cells=False, text=True),
-    # a point cloud (points, no faces) is written as one vertex cell per point (PLY: the vertices alone)
-    Format("VTP", "points", (".vtp",), write=_write_vtp, fields=True, vectors=True),
-    Format("VTU", "points", (".vtu",), write=_write_vtu, fields=True, vectors=True),
-    Format("legacy VTK", "points", (".vtk",), write=_write_legacy, fields=True, vectors=True, plain_names=True,
-           reserved=vtk_reserved),
-    Format("PLY", "points", (".ply",), write=_write_meshio, fields=True, columns=True, plain_names=True,
-           reserved=ply_reserved, meshio="ply"),
-):
-    register_format(_fmt)
-
-#: The mesh formats (a view of :mod:`manifill.io.formats`' registry).
-MESH_FORMATS = FormatView("mesh")
-#: The formats a point cloud is written as (a view of the registry).
-POINT_FORMATS = FormatView("points", writing=True)
-#: FreeSurfer triangle surfaces, recognised by their magic number (no suffix)
-FREESURFER = Format("FreeSurfer surface", "mesh", (), _read_freesurfer, extra="neuro")
 _READERS_SHOWN = {"meshio": "meshio", "pyvista": "pyvista/VTK/ParaView", "nibabel": "nibabel"}
 
 

@@ -61,9 +61,7 @@ __all__ = ["VolumeReconstruction", "reconstruct_volume", "reconstruct_volume_tet
 
 #: The surface weights a digital surface can use (it has no triangles for cotangents); its default.
 MASK_WEIGHTS = ("uniform",)
-
-#: Public names moved, kept one release with a warning (:mod:`manifill.deprecation`).
-__getattr__ = renamed(__name__, {"FILL_WEIGHTS": "manifill.mesh.tetmesh:TET_WEIGHTS"})
+__getattr__ = renamed(__name__, {"FILL_WEIGHTS": "manifill.mesh.tetmesh:TET_WEIGHTS"})  # one release (deprecation)
 #: Options of :func:`manifill.reconstruct` a voxel mask cannot take: its samples are voxels, not positions.
 _POSITION_OPTIONS = ("max_distance",)
 #: Keywords of ``reconstruct_surface`` that are the functions' own, not the caller's.
@@ -187,7 +185,7 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     >>> r.values.shape, bool(np.isnan(r.values[0, 0, 0]))
     ((26, 26, 26), True)
     """
-    check_volume_options(form=form, resolution=resolution, connectivity=connectivity, max_volume=max_volume,
+    check_volume_options(form=form, connectivity=connectivity, max_volume=max_volume,
                          allow_open=allow_open, fill_weights=fill_weights)
     _check_fill(form, fill_solver, fill_weights)
     if form == "tets":

@@ -118,7 +118,7 @@ def test_import_manifill_loads_no_command_line_no_adapter_and_no_dask():
 def test_renamed_public_names_still_answer_for_one_release_with_a_warning():
     import manifill.surface.reconstruct as rec
 
-    with pytest.warns(DeprecationWarning, match=r"reconstruct\.METHODS is now METHOD_NAMES"):
+    with pytest.warns(DeprecationWarning, match=r"reconstruct\.METHODS is now manifill\.surface\.reconstruct\.METHOD_NAMES"):  # noqa: E501
         old = rec.METHODS
     assert old == rec.METHOD_NAMES == manifill.surface.methods.registry.names(presets=False)
     assert "biharmonic" in old and "default" not in old

@@ -39,8 +39,8 @@ from ..memory import available_bytes, lu_memory
 from ..tolerances import TOL
 from ..validate import as_indices, as_mesh, as_tets, check_option, unit_scale
 
-__all__ = ["PolyharmonicSolver", "biharmonic", "energy_matrix", "positions", "polyharmonic_matrix", "POLYHARMONIC_SOLVERS",
-           "MASS"]
+__all__ = ["PolyharmonicSolver", "biharmonic", "energy_matrix", "positions", "polyharmonic_matrix",
+           "POLYHARMONIC_SOLVERS", "MASS"]
 
 #: Solvers of the reduced system (see :mod:`manifill.linalg.backends`).
 POLYHARMONIC_SOLVERS = ("auto", "direct", "amg")

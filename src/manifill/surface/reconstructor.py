@@ -2,7 +2,8 @@
 
 :class:`Reconstructor` does once what does not depend on the sample values -- validation, the
 graph, the Laplacian, the partition (Steps 2-3), the fill's factorisation or AMG hierarchy,
-Step 4's linear map, the location of samples given as positions -- and :meth:`Reconstructor.apply`
+Step 4's linear map, the mesh and samples made ready (:class:`~manifill.surface.domain.Domain`: vertices
+no face uses left out, the cut along barriers, samples given as positions located) -- and :meth:`Reconstructor.apply`
 then runs the rest for any values, ``(k,)`` or ``(k, p)``, giving what
 :func:`manifill.reconstruct` gives for them (which is a Reconstructor applied once).
 
@@ -23,22 +24,17 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator
 
-from ..errors import OptionError, SampleError
-from ..linalg.gp import as_gp_options
+from ..errors import OptionError
 from ..linalg.quadratic import QuadraticSolver
 from ..memory import check_fits
-from ..validate import as_indices, as_mesh, as_points, as_samples, check_option
+from ..validate import check_option
 from ..validate.objects import is_mesh_object
+from .domain import Domain
 from .energy_fill import as_bounds
 from .engine import reconstruct_surface
-from .locate import locate_points
 from .methods.registry import configure, method_of
-from .points import is_positions, point_samples
 from .prepared import Prepared
-from .samples import weights_by_vertex
-from .barriers import Cut, barrier_faces, renumber
 from .surface import Surface
-from .unreferenced import compact
 
 __all__ = ["Reconstructor", "MATRIX_FORMS"]
 
@@ -102,62 +98,18 @@ class Reconstructor:
             raise OptionError(f"fields={fields!r} is not a whole number >= 1 (how many fields you will "
                               f"reconstruct); pass one, or None for many")
         self._source = V if is_mesh_object(V) else None  # its own arrays go back out with the result
-        if F is None and not is_mesh_object(V):  # a point cloud
-            V, self._compact = as_points(V), None
-        else:
-            V, F = as_mesh(V, F, allow_degenerate=o.fill.weights in ("uniform", "robust"), allow_unreferenced=True)
-            self._compact = compact(V, F)  # vertices used by no face: left out, NaN in the result
-        n_full = len(V)
-        if self._compact is not None:
-            V, F = self._compact.V, self._compact.F
-        self._cut, bakka = None, None
-        barriers = o.fill.barriers
-        if barriers is not None and self._compact is not None:  # paths in the caller's numbering
-            barriers = renumber(barriers, self._compact.new)
-        if as_gp_options(o.uq.gp).barrier == "bakka" and (barriers is None or not method_of(o.method).gp_mean):
-            raise OptionError("gp barrier='bakka' is the gp's model of barriers=: give barriers= and method='gp', or "
-                              "leave it out")
-        if barriers is not None:  # the mesh cut along them: no method sees across
-            if F is None:
-                raise OptionError("barriers cut a mesh along its edges, and a point cloud has none; give the mesh's "
-                                  "faces, or leave barriers out")
-            if method_of(o.method).gp_mean and as_gp_options(o.uq.gp).barrier == "bakka":
-                bakka = barrier_faces(V, F, barriers)  # the mesh whole, the faces along them slow
-            else:
-                self._cut = Cut(V, F, barriers)
-                V, F = self._cut.V, self._cut.F
         self.method, self._method = o.method, method_of(o.method)
+        self._domain = Domain(V, F, idx, o, self._method)
         self.default = o.preset is not None
-        self._located, self._raw, self._copies = None, idx, None
-        weights = o.fit.sample_weights
-        if is_positions(idx):
-            self._raw = np.asarray(idx, dtype=np.float64)  # the positions, kept for every apply
-            self._located = locate_points(V, F, self._raw, max_distance=o.points.max_distance)
-            self.samples = len(self._raw)
-            if self._cut is not None:
-                self._cut.check_pieces(self._located.corners[:, 0], o.fill.on_empty)
-        elif o.points.max_distance is not None:
-            raise OptionError("max_distance applies to samples given as positions, not vertex indices; leave it out")
-        else:
-            self._raw = as_indices(idx, n_full, what="idx", unique=False)
-            if self._compact is not None:
-                self._raw = self._compact.indices(self._raw)
-            self.samples = self._raw.size
-            if self._cut is not None:  # a sample on a barrier holds on each side: a row per copy, sorted
-                copies, rows = self._cut.copies(np.unique(self._raw))
-                order = np.argsort(copies, kind="stable")
-                self._copies = copies[order], rows[order]
-                self._cut.check_pieces(copies, o.fill.on_empty)
-            if weights is not None:  # the caller's rows -> the sorted unique vertices (merged rows add up)
-                weights = weights_by_vertex(self._raw, weights, np.unique(self._raw))
-                weights = weights if self._copies is None else weights[self._copies[1]]
+        self.samples = self._domain.samples
+        weights = self._domain.sample_weights(o.fit.sample_weights)
         self.options = o if weights is None else configure(o.replace(sample_weights=weights))  # checked once
         self.seconds = {"validate": time.perf_counter() - t0}
         t = time.perf_counter()
-        self.surface = _surface(V, F, o, self._cut, bakka)
+        self.surface = _surface(self._domain, o)
         self.seconds["graph"] = time.perf_counter() - t
         self.fields = math.inf if fields is None else int(fields)
-        self.linear, self._why = self._linearity()
+        self.linear, self._why = self._method.linearity(self.options)
         self._prepared = Prepared()
         if prepare:
             self._prepare(progress)
@@ -165,29 +117,16 @@ class Reconstructor:
     @property
     def n(self):
         """Rows of the results: the caller's vertices (before any left out, and before a barrier's cut)."""
-        return (self._compact or self._cut or self.surface).n
+        return self._domain.n
 
     def mesh(self):
         """``(V, F)`` in the caller's numbering (``F`` None for a point cloud): what the results are on."""
-        whole = self._compact or self._cut
-        return (self.surface.V, self.surface.F) if whole is None else (whole.V_full, whole.F_full)
-
-    def _linearity(self):
-        """``(linear, why not)`` for this configuration (the module docstring's list)."""
-        o = self.options
-        if o.uq.trust is not None and o.uq.untrusted == "nan":
-            return False, "trust with untrusted='nan' blanks values by their std"
-        if o.fit.projected:
-            return False, "bounds_mode='project' clips each field onto its bounds (the map before the clip is "\
-                          "the method's: pass bounds=None for it)"
-        if o.fit.bounds is not None:
-            return False, "bounds make an active set, which depends on the values"
-        return self._method.linear(o)
+        return self._domain.mesh()
 
     def __getstate__(self):
         """What a pickle holds: the mesh and the plain prepared pieces, not the process-local solvers.
 
-        The surface goes as ``(V, F)`` (its graphs and Laplacians are rebuilt in a few
+        The surface goes as its domain's arrays (its graphs and Laplacians are rebuilt in a few
         hundredths of the preparation's time); the partition, Step 4's curve map and the
         energy matrix go as they are; the fill's and the energy's solvers (a factorisation
         or an AMG hierarchy, which cannot leave their process) are left out, and built again by
@@ -195,16 +134,14 @@ class Reconstructor:
         ``fields`` hint, so that it gives the same values.
         """
         state = dict(self.__dict__)
-        state["surface"] = (self.surface.V, self.surface.F)
-        state["_bakka"] = self.surface.barrier_faces
+        state["surface"] = None  # the domain holds its arrays
         state["_prepared"] = {k: v for k, v in self._prepared.items() if not _process_local(v)}
         return state
 
     def __setstate__(self, state):
         """Rebuild the surface; the solvers wait for the first :meth:`apply` (``prepared.cached``)."""
-        V, F = state["surface"]
         self.__dict__.update(state)
-        self.surface = _surface(V, F, self.options, self._cut, state.get("_bakka"))
+        self.surface = _surface(self._domain, self.options)
         self._prepared = Prepared(state["_prepared"])
 
     def _prepare(self, progress):
@@ -222,27 +159,8 @@ class Reconstructor:
         return self.options.replace(uncertainty=False, trust=None, check=False, gp=gp, **more)
 
     def _samples(self, vals, duplicates):
-        """``(idx, vals, points, squeeze, given)`` for values in the caller's rows."""
-        arr = np.asarray(vals, dtype=np.float64) if not isinstance(vals, np.ndarray) else vals
-        if arr.ndim not in (1, 2) or arr.shape[0] != self.samples:
-            raise SampleError(f"vals has shape {arr.shape}, but this Reconstructor was prepared for "
-                              f"{self.samples} samples; pass ({self.samples},) or ({self.samples}, p) values, one "
-                              f"row per sample in the order given")
-        given = arr.reshape(self.samples, -1)
-        if self._located is not None:
-            V, F = self.surface.V, self.surface.F
-            points = point_samples(V, F, self._raw, arr, duplicates=duplicates,
-                                   max_distance=self.options.points.max_distance,
-                                   nearest_only=not self._method.at_points, located=self._located)
-            if self._cut is not None:
-                points = self._cut.both_sides(points)
-            return points.nearest, points.nearest_vals, points, points.squeeze, given
-        idx, v, squeeze = as_samples(self._raw, arr, self.n if self._compact is None else self._compact.keep.size,
-                                     duplicates=duplicates)
-        if self._copies is not None:  # checked in the caller's rows, then held on every side of a barrier
-            copies, rows = self._copies
-            return copies, v[rows], None, squeeze, given
-        return idx, v, None, squeeze, given
+        """``(idx, vals, points, squeeze, given)`` for values in the caller's rows (:meth:`Domain.place`)."""
+        return self._domain.place(vals, duplicates)
 
     def _run(self, vals, options, duplicates, progress=None):
         t0 = time.perf_counter()
@@ -256,14 +174,12 @@ class Reconstructor:
         r.source = self._source
         smoothed = r.report.get("fill", {}).get("smoothing")
         if smoothed is not None:  # residuals in the caller's rows and shape
-            at = r.points.interpolate(r.values) if points is not None else r.values[self._raw]
+            at = self._domain.at_samples(r)
             smoothed["residuals"] = (at - given)[:, 0] if squeeze else at - given
         if squeeze:
             r.values = r.values[:, 0]
             r.std = None if r.std is None else r.std[:, 0]
-        if self._cut is not None:
-            r = self._cut.expand(r)
-        return r if self._compact is None else self._compact.expand(r)
+        return self._domain.expand(r)
 
     def apply(self, vals, *, progress=None):
         """The reconstruction of ``vals``: what :func:`manifill.reconstruct` gives for them.
@@ -348,14 +264,14 @@ class Reconstructor:
         return W
 
 
-def _surface(V, F, options, cut=None, barrier_faces=None):
-    """The validated arrays as a Surface: a mesh (cut along barriers, or with Bakka's barrier faces), or a point cloud
-    when ``F`` is None."""
-    if F is None:
-        return Surface.from_points(V, neighbours=options.fill.neighbours, distance=options.fill.distance,
+def _surface(domain, options):
+    """The domain's arrays as a Surface: a mesh (cut along barriers, or with Bakka's barrier faces), or a point cloud
+    when its ``F`` is None."""
+    if domain.F is None:
+        return Surface.from_points(domain.V, neighbours=options.fill.neighbours, distance=options.fill.distance,
                                    check=False)
-    surface = Surface.from_mesh(V, F, distance=options.fill.distance, check=False, cut=cut)
-    surface.barrier_faces = barrier_faces
+    surface = Surface.from_mesh(domain.V, domain.F, distance=options.fill.distance, check=False, cut=domain.cut)
+    surface.barrier_faces = domain.barrier_faces
     return surface
 
 

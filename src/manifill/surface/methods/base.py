@@ -11,7 +11,10 @@ name:
   Steps 2-3), ``smooth_gradient`` (its gradient has no jumps at the samples or curves);
 - :meth:`Method.steps`: the steps it runs (a progress bar's total);
 - :meth:`Method.check`: refuse an option it cannot use, with a one-line error;
-- :meth:`Method.linear`: whether its result is linear in the values (then it has a map);
+- :meth:`Method.linear`: whether its result is linear in the values (then it has a map), and
+  :meth:`Method.linearity`: the same under the options every method shares (bounds, projection, trust);
+- :meth:`Method.barrier_model`: how it sees ``barriers=`` (``barrier_models``: the mesh cut, or the gp's
+  Bakka faces);
 - :meth:`Method.preparable`: whether a zero run builds its value-independent pieces;
 - :meth:`Method.needs_levels`: whether Step 1's levels are needed whatever ``check`` says;
 - :meth:`Method.fill`: the values (and a std, if it makes one) for one :class:`Run`.
@@ -27,6 +30,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from ...errors import OptionError, SampleError
+from ...linalg.gp import as_gp_options
 from ...progress import tick
 from ...report import Report
 from ..gp import trust_mask
@@ -70,6 +74,9 @@ class Method:
     cv_hint = ""
     #: The steps after ``graph``, by the names passed to ``progress``.
     step_names = ()
+    #: The models of ``barriers=`` it takes (``gp={'barrier': ...}``): ``'cut'``, the mesh cut along them (any
+    #: method), or ``'bakka'``, the gp's own (the mesh whole, the faces along them of a short range).
+    barrier_models = ("cut",)
 
     def steps(self, options):
         """The progress steps this method runs with ``options`` (after ``graph``)."""
@@ -93,6 +100,53 @@ class Method:
     def linear(self, options):
         """``(linear, why not)``: whether the result is linear in the sample values, for this method's options."""
         return False, f"method={self.name!r} is not linear in the values"
+
+    def linearity(self, options):
+        """``(linear, why not)`` for this configuration: first what every method shares, then :meth:`linear`.
+
+        Trust with ``untrusted='nan'``, ``bounds_mode='project'`` and bounds make any method non-linear in the
+        values (a mask by the std, a clip, an active set).
+
+        Examples
+        --------
+        >>> from manifill.surface.methods.registry import configure, method_of
+        >>> method_of("harmonic").linearity(configure(method="harmonic"))[0]
+        True
+        >>> method_of("harmonic").linearity(configure(method="harmonic", bounds="samples"))[1]
+        'bounds make an active set, which depends on the values'
+        """
+        o = options
+        if o.uq.trust is not None and o.uq.untrusted == "nan":
+            return False, "trust with untrusted='nan' blanks values by their std"
+        if o.fit.projected:
+            return False, "bounds_mode='project' clips each field onto its bounds (the map before the clip is "\
+                          "the method's: pass bounds=None for it)"
+        if o.fit.bounds is not None:
+            return False, "bounds make an active set, which depends on the values"
+        return self.linear(options)
+
+    def barrier_model(self, options):
+        """How this method sees ``barriers=``: ``'cut'`` (the mesh cut along them) or ``'bakka'`` (the gp's model).
+
+        Raises
+        ------
+        OptionError
+            A model of its own (``gp={'barrier': 'bakka'}``) without ``barriers=``, or by a method that does
+            not take it (:attr:`barrier_models`).
+
+        Examples
+        --------
+        >>> from manifill.surface.methods.registry import configure, method_of
+        >>> method_of("gp").barrier_model(configure(method="gp", barriers=[[0, 1]], gp={"barrier": "bakka"}))
+        'bakka'
+        >>> method_of("harmonic").barrier_model(configure(method="harmonic", barriers=[[0, 1]]))
+        'cut'
+        """
+        model = as_gp_options(options.uq.gp).barrier
+        if model not in self.barrier_models or (model != "cut" and options.fill.barriers is None):
+            raise OptionError(f"gp barrier={model!r} is the gp's model of barriers=: give barriers= and "
+                              f"method='gp', or leave it out")
+        return model
 
     def preparable(self, options):
         """Whether a run on zero values builds pieces worth keeping (a partition, a factorisation)."""

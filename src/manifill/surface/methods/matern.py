@@ -26,6 +26,7 @@ class Matern(Method):
     gp_mean = True
     needs_triangles = True
     step_names = ("check", "gp")
+    barrier_models = ("cut", "bakka")  # with barriers=: the mesh cut, or whole with Bakka's barrier faces
 
     def check(self, options):
         fit = options.fit

@@ -77,6 +77,8 @@ class Method:
     #: The models of ``barriers=`` it takes (``gp={'barrier': ...}``): ``'cut'``, the mesh cut along them (any
     #: method), or ``'bakka'``, the gp's own (the mesh whole, the faces along them of a short range).
     barrier_models = ("cut",)
+    #: Step 4's curve values when none are given (a preset may give others: the default's ``'monotone'``).
+    default_curve_values = "hermite"
 
     def steps(self, options):
         """The progress steps this method runs with ``options`` (after ``graph``)."""

@@ -64,9 +64,10 @@ def method_of(name):
 def configure(options=None, **keywords):
     """:class:`~manifill.surface.options.Options` from keywords (or a copy changed by them), resolved and checked.
 
-    Resolves ``method=None`` (and any preset's name) to the preset's method and the options it
-    sets unless given; ``curve_values=None`` to ``'hermite'``; ``uncertainty=None`` to whether a
-    std is asked for (``method='gp'``, or ``trust``); then the method refuses what it cannot use.
+    Resolves ``method=None`` (and any preset's name) to the preset's method and the options it sets unless
+    given; ``curve_values=None`` to the method's own (``Method.default_curve_values``, ``'hermite'``);
+    ``uncertainty=None`` to whether a std is asked for (``method='gp'``, or ``trust``); then the method refuses
+    what it cannot use.
 
     Raises
     ------
@@ -97,9 +98,9 @@ def configure(options=None, **keywords):
         fill_in = {k: v for k, v in preset.options.items() if k not in o.given}
         o = replace(o.replace(method=preset.method, preset=preset.name, **fill_in), given=o.given)
     check_option("method", o.method, names())
-    if o.fill.curve_values is None:
-        o = replace(o, fill=replace(o.fill, curve_values="hermite"))
     method = METHODS[o.method]
+    if o.fill.curve_values is None:  # the method's own
+        o = replace(o, fill=replace(o.fill, curve_values=method.default_curve_values))
     uncertainty = _check_uncertainty(method, o)
     _check_gp(method, o, uncertainty)
     method.check(o)

@@ -131,7 +131,7 @@ def main(argv=None):
     for init in ("random", "gvf", "mean"):
         t0 = time.perf_counter()
         r = reconstruct(Vs, Fs, idx, fs[idx], solver="iterate", init=init, tol=1e-8)
-        print(f"  init={init:6s}: {r.report['harmonic']['iterations'][0]:5d} sweeps, {time.perf_counter() - t0:.2f} s")
+        print(f"  init={init:6s}: {r.report['fill']['iterations'][0]:5d} sweeps, {time.perf_counter() - t0:.2f} s")
 
 
 if __name__ == "__main__":

@@ -185,7 +185,7 @@ def _summary(args, r, V, S):
         pr = rep["partition"]
         print(f"steps 2-3: {pr['method']} partition, {pr['curves']} curves through {pr['curve_vertices']:,} "
               f"vertices, {pr['patches']} patches (largest {max(pr['patch_sizes'] or [0]):,})")
-    if "harmonic" in rep:
+    if "fill" in rep:
         _fill_line(args, rep)
     if rep.get("bounds", {}).get("mode") == "project":
         b = rep["bounds"]

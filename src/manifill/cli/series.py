@@ -94,7 +94,7 @@ def run_series(args, out, options, exact):
         print(f"step 1 ({which}): gradual variation fails at {bad} of its steps" if bad else
               f"step 1 ({which}): gradual variation holds")
     print(f"method: {rep['method']}" + (" (the default)" if rep.get("default") else "")
-          + (f", solver={rep['harmonic'].get('solver')}" if "harmonic" in rep else "")
+          + (f", solver={rep['fill'].get('solver')}" if "fill" in rep else "")
           + (f"; linear: {len(where['vals']):,} solves for its map, one product per chunk" if done.linear_map
              else ""))
     print_time(args, done.seconds)

@@ -133,7 +133,7 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
         exact bounds.
     smoothing : None, float >= 0 or 'auto', optional
         Energy methods only: soft constraints with this lambda (``'auto'``:
-        generalised cross-validation); ``report['harmonic']['smoothing']``
+        generalised cross-validation); ``report['fill']['smoothing']``
         gives lambda and the residuals at the samples.
     sample_weights : (k,) array_like of float, optional
         Weights of the soft constraints (with ``smoothing``).

@@ -42,6 +42,10 @@ from .viz.figures import paper_figures
 __all__ = ["run_demo", "demo_field"]
 
 
+#: The extra that installs a module the pictures need.
+EXTRA_OF = {"pyvista": "viz", "vtk": "viz", "vtkmodules": "viz", "igl": "volume", "tetgen": "volume"}
+
+
 def demo_field(V):
     """The demo's known field ``sin(2x) + yz + 0.5 cos(3y)``.
 
@@ -146,8 +150,8 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
             f"  from {report[k]['fixed']:>5,} vertices ({label:<20s}): relative RMSE "
             f"{report[k]['relative_rmse']:.4f}, max error {report[k]['max_error']:.4f}, "
             f"{report[k]['seconds']:.2f} s ({report[k]['solver']})"
-            for k, label in (("default", "100 points, default"), ("pipeline", "100 points, pipeline"),
-                             ("points", "100 points, harmonic"), ("gp", "100 points, gp"),
+            for k, label in (("default", f"{samples} points, default"), ("pipeline", f"{samples} points, pipeline"),
+                             ("points", f"{samples} points, harmonic"), ("gp", f"{samples} points, gp"),
                              ("curves", "three great circles"))
         ),
         f"  gp's 90% band (mean +/- 1.645 std) holds the truth at {report['gp']['coverage90']:.1%} of the "
@@ -156,14 +160,16 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
         f"  wrote {', '.join(str(f) for f in files)}",
         f"  try: manifill reconstruct {files[1]} {files[2]} -o {out / 'mine.vtu'}",
     ]
+    figures = {}
     try:
-        figures = paper_figures(out, demo_field, "sin(2x) + yz + 0.5 cos(3y)")
-    except ImportError:
-        figures = None
-        lines.insert(-2, "  pictures: install pyvista (pip install 'manifill[viz]') for the paper's figures")
-    if figures:
-        lines[-2:-2] = figures["lines"]
-        files += [Path(f) for f in figures["files"]]
+        paper_figures(out, demo_field, "sin(2x) + yz + 0.5 cos(3y)", into=figures)
+    except ImportError as exc:  # what is missing, by name, and what was written before it
+        missing = exc.name or str(exc)
+        extra = EXTRA_OF.get((exc.name or "").split(".")[0], "all")
+        what = "the rest need" if figures.get("files") else "the paper's figures need"
+        figures.setdefault("lines", []).append(f"  pictures: {what} {missing} (pip install 'manifill[{extra}]')")
+    lines[-2:-2] = figures.get("lines", [])
+    files += [Path(f) for f in figures.get("files", [])]
     lines[-2] = f"  wrote {', '.join(str(f) for f in files)}"
     files[3].write_text("\n".join(lines) + "\n")
     report["files"] = [str(f) for f in files]

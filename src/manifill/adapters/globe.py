@@ -10,6 +10,7 @@ regular grid (``grid=1.0``: every degree), with CF attributes (``latitude``/``lo
 ``[xarray]`` extra (xarray; netCDF4 or h5netcdf for the files).
 """
 
+import datetime
 import math
 from pathlib import Path
 
@@ -19,7 +20,9 @@ from scipy.spatial import cKDTree
 from ..errors import OptionError, ReadError, SampleError, WriteError
 from ..io.files import atomic_path
 from ..io.formats import Format, find_format, register_format
+from .globe_tables import COORDINATES, check_name, check_names, listed, table_stations
 from ..mesh.shapes import icosphere
+from ..version import __version__
 from ..memory import check_fits
 from ..surface.locate import locate_points
 from ..surface.reconstructor import Reconstructor
@@ -123,75 +126,14 @@ def _stations(data, var, lon, lat, station, time):
         return _dataset_stations(data, var, lon, lat, station, time)
     if not hasattr(data, "columns"):
         raise OptionError(f"stations are a pandas DataFrame or an xarray Dataset, not {type(data).__name__}")
-    _check_names("column", data.columns, data.columns, var, lon, lat)
-    rest = [c for c in data.columns if c not in (lon, lat, station)] if var is None else [var]
-    columns = {c: _numbers(data[c], c, strict=var is not None) for c in rest}
-    cols = [c for c in rest if columns[c] is not None]
-    if not cols:
-        raise OptionError("the stations have no column of numbers besides lon and lat; add one, or pass var=")
-    values = np.column_stack([columns[c] for c in cols])
-    where = _numbers(data[lon], lon, strict=True), _numbers(data[lat], lat, strict=True)
-    name = str(cols[0]) if len(cols) == 1 else "value"
-    _check_name(name, var)
-    return (*where, values, None, name, {"fields": [str(c) for c in cols]})
-
-
-#: Names a value may not take: the output's own coordinates.
-_COORDINATES = ("lon", "lat", "vertex", "field")
-
-
-def _check_name(name, var):
-    if name in _COORDINATES:
-        raise OptionError(f"the value {name!r} would share its name with the output's {name!r} coordinate; rename "
-                          f"the column or variable" + ("" if var else ", or pass var= another (CLI: --var)"))
-
-
-def _check_names(kind, names, values, var, lon, lat):
-    """The longitude and latitude among ``names``, and ``var`` among the ``values`` (a table's columns, a
-    Dataset's variables), each refused in one line naming what is there."""
-    for c in (lon, lat):
-        if c not in names:
-            raise OptionError(f"the stations have no {kind} {c!r} (they have {_listed(names)}); name their longitude "
-                              f"and latitude {kind}s (lon=, lat=; CLI: --lon, --lat), in degrees")
-    if var in (lon, lat):
-        raise OptionError(f"var={var!r} is the stations' {'longitude' if var == lon else 'latitude'}; pass a value "
-                          f"{kind} (CLI: --var)")
-    if var is not None and var not in values:
-        raise OptionError(f"the stations have no {kind} {var!r} (they have {_listed(values)}); pass var= one of "
-                          f"them (CLI: --var)")
-
-
-def _listed(names, most=8):
-    names = [str(n) for n in names]
-    return ", ".join(names[:most]) + (f" and {len(names) - most} more" if len(names) > most else "")
-
-
-def _numbers(column, name, strict):
-    """A DataFrame column as floats (empty cells NaN: no value at that station); None for a column of text alone
-    (station names) unless ``strict``; a cell that is neither a number nor empty is named with its row."""
-    if getattr(column.dtype, "kind", "O") in "iufb":
-        return column.to_numpy(dtype=np.float64)
-    import pandas
-
-    text = column.astype(str).str.strip()
-    empty = column.isna().to_numpy() | (text == "").to_numpy()
-    parsed = pandas.to_numeric(column.where(~empty), errors="coerce").to_numpy(dtype=np.float64)
-    bad = np.flatnonzero(np.isnan(parsed) & ~empty & ~text.str.lower().isin(("nan", "na", "n/a")).to_numpy())
-    if bad.size and not strict and bad.size == (~empty).sum():
-        return None  # text alone: station names or notes, left out
-    if bad.size:
-        i = int(bad[0])
-        raise SampleError(f"column {name!r}, row {i + 1} (line {i + 2} of a CSV with one header line) holds "
-                          f"{str(column.iloc[i])[:40]!r}, not a number ({bad.size} such cell(s)); fix it, or leave the "
-                          f"cell empty for a station without a value")
-    return parsed
+    return table_stations(data, var, lon, lat, station, time)
 
 
 def _dataset_stations(data, var, lon, lat, station, time):
-    _check_names("variable", data.variables, data.data_vars, var, lon, lat)
+    check_names("variable", data.variables, data.data_vars, var, lon, lat)
     names = [v for v in data.data_vars if v not in (lon, lat)] if var is None else [var]
     if len(names) != 1:
-        raise OptionError(f"the stations have {len(names)} variables ({_listed(names)}); pass var= one of them "
+        raise OptionError(f"the stations have {len(names)} variables ({listed(names)}); pass var= one of them "
                           f"(CLI: --var)")
     da = data[names[0]]
     if station not in da.dims:
@@ -210,8 +152,8 @@ def _dataset_stations(data, var, lon, lat, station, time):
     if lons.shape != (da.sizes[station],) or lats.shape != lons.shape:
         raise SampleError(f"{lon!r} and {lat!r} have shapes {lons.shape} and {lats.shape}; each needs one value "
                           f"per station ({da.sizes[station]}), along {station!r}")
-    _check_name(str(names[0]), var)
-    if times is not None and times.name in _COORDINATES:
+    check_name(str(names[0]), var)
+    if times is not None and times.name in COORDINATES:
         raise OptionError(f"the time dimension {times.name!r} would share its name with the output's coordinate; "
                           f"rename it")
     values = da.transpose(station, *([time] if times is not None else [])).values.astype(np.float64)
@@ -305,7 +247,8 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
     ds[name].attrs.setdefault("long_name", name)
     made = f"manifill {method or 'default'} from {len(lons)} stations"
     ds.attrs.update({"Conventions": "CF-1.8", "source": f"{attrs['source']}; {made}" if "source" in attrs else made,
-                     "history": f"reconstructed on a sphere of {len(V):,} vertices"})
+                     "history": f"{_now()}: manifill.reconstruct_globe (manifill {__version__}): reconstructed on a "
+                                f"sphere of {len(V):,} vertices"})
     if notes:
         ds.attrs["comment"] = "; ".join(notes)
     return ds if std else ds[name].assign_attrs(**{k: ds.attrs[k] for k in ("Conventions", "source", "history",
@@ -321,9 +264,15 @@ def write_netcdf(field, path):
     ds = ds.assign_attrs(glob)
     for v in ds.data_vars:
         ds[v].attrs = {k: a for k, a in ds[v].attrs.items() if k not in glob}
+    encoding = {c: {"_FillValue": None} for c in ds.coords}  # CF: coordinates have no fill value
     with atomic_path(path) as tmp:  # nothing half-written is left at path
-        ds.to_netcdf(tmp)
+        ds.to_netcdf(tmp, encoding=encoding)
     return path
+
+
+def _now():
+    """The time now, UTC, as CF's history starts a line (``2026-12-07T09:00:00Z``)."""
+    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _read_csv_stations(path):
@@ -407,7 +356,7 @@ def _reconstruct(V, F, tree, P, vals, method, options, snap=True):
                          **{"duplicates": "mean", **options}).apply(vals), shared
 
 
-def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat="lat", **options):
+def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat="lat", command=None, **options):
     """``manifill globe``: a CSV of stations (``lon``, ``lat``, value columns) or a netCDF of them (a ``station``
     dimension) to a netCDF on a regular grid; returns a one-line summary.
 
@@ -429,6 +378,8 @@ def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat
         raise ReadError(f"{src.name}: could not be read as stations ({str(exc).splitlines()[0][:120]}); pass a CSV "
                         f"with lon and lat columns or a netCDF with a station dimension") from None
     field = reconstruct_globe(data, var=var, grid=grid, method=method, lon=lon, lat=lat, **options)
+    if command:  # CF's history: when, and the command line that made the file
+        field.attrs["history"] = field.attrs["history"].replace("manifill.reconstruct_globe", command, 1)
     _NETCDF.write(field, out)
     said = f" ({field.attrs['comment']})" if field.attrs.get("comment") else ""
     return f"wrote {out.name}: {field.name} on {' x '.join(f'{d} {n}' for d, n in field.sizes.items())}{said}"

@@ -31,5 +31,5 @@ def run(args):
     """Write the netCDF and say what it holds."""
     options = {} if args.smoothing is None else {"smoothing": smoothing_arg(args.smoothing)}
     print(globe_file(args.stations, args.output, var=args.var, grid=args.grid, method=args.method, lon=args.lon,
-                     lat=args.lat, **options))
+                     lat=args.lat, command=args.command_line, **options))
     return 0

@@ -16,6 +16,7 @@ never imports the cluster layer.
 import argparse
 import contextlib
 import io
+import shlex
 import logging
 import os
 import signal
@@ -90,6 +91,7 @@ def main(argv=None):
         args = parser.parse_args(argv)
     except SystemExit as exc:
         return int(exc.code or 0)
+    args.command_line = " ".join(shlex.quote(str(a)) for a in ["manifill", *(sys.argv[1:] if argv is None else argv)])
     with _terminate_as_interrupt():
         try:
             if getattr(args, "quiet", False):

@@ -66,6 +66,36 @@ def check_input_file(path):
         raise ReadError(f"{path}: no such file" if not path.exists() else f"{path}: not a file; pass a file")
 
 
+#: First bytes of files people pick by mistake, and what they are.
+FOREIGN = ((b"\x89PNG\r\n\x1a\n", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"%PDF-", "a PDF document"),
+           (b"GIF8", "a GIF image"), (b"PK\x03\x04", "a ZIP archive"), (b"\x1f\x8b", "a gzip archive"))
+
+
+def check_not_foreign(path, what, thing, *, archive=False, gzip=False):
+    r"""Refuse a file whose first bytes say it is an image, a PDF or an archive, naming what it is, what was
+    expected (``what``, e.g. ``"a PLY mesh"``) and the file to pass instead (``thing``, e.g. ``"mesh"``);
+    ``archive``: a ZIP is expected (``.npz``); ``gzip``: a gzip is (``.mgz``).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> p = os.path.join(tempfile.mkdtemp(), "scalp.ply")
+    >>> _ = open(p, "wb").write(b"\x89PNG\r\n\x1a\n....")
+    >>> check_not_foreign(p, "a PLY mesh", "mesh")
+    Traceback (most recent call last):
+    ...
+    manifill.errors.ReadError: scalp.ply is a PNG image, not a PLY mesh; pass the mesh file itself
+    """
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return
+    for magic, kind in FOREIGN:
+        if head.startswith(magic) and not (archive and magic == b"PK\x03\x04") and not (gzip and magic == b"\x1f\x8b"):
+            raise ReadError(f"{Path(path).name} is {kind}, not {what}; pass the {thing} file itself")
+
+
 @contextmanager
 def reading(path, kind):
     """Run a parser on ``path``; any failure of a malformed file becomes one :class:`ReadError`.

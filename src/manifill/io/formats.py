@@ -84,6 +84,9 @@ class Format:
         A series: it stores static fields beside the steps (``static=``).
     needs_steps : bool
         A series: the number of steps must be given up front (``steps=T``).
+    container : str or None
+        The file is a ``"zip"`` archive (``.npz``) or ``"gzip"`` stream (``.mgz``) by design (a ZIP given for
+        another format is refused as such).
     exact : bool
         It keeps float64 values (GIfTI keeps float32, what Workbench reads).
     extra : str or None
@@ -112,6 +115,7 @@ class Format:
     static: bool = False
     needs_steps: bool = False
     exact: bool = True
+    container: str = None
     extra: str = None
     meshio: str = None
 

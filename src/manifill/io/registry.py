@@ -24,7 +24,7 @@ from ..errors import ManifillError, ReadError, WriteError
 from ..mesh.objects import mesh_arrays
 from ..validate import as_mesh, as_vertices, is_mesh_object
 from .field_names import stored_names
-from .files import PointsOnly, check_input_file
+from .files import PointsOnly, check_input_file, check_not_foreign
 from .formats import Format, find_format, suffix_list
 from .mesh_formats import CELL_WRITERS, FREESURFER, MESH_FORMATS, POINT_FORMATS  # noqa: F401 (shown here too)
 from .neuro import sniff
@@ -151,6 +151,7 @@ def read_mesh_file(path, *, points=False):
     path = Path(path)
     fmt = mesh_format(path)
     check_input_file(path)
+    check_not_foreign(path, f"a {fmt.name} mesh" if fmt.cells else f"a file of {fmt.name}", "mesh")
     read = _READ.get()
     if read is None:
         return _read_or_points(path, fmt, points)

@@ -8,6 +8,7 @@ is refused before anything is allocated.
 """
 
 import csv
+import difflib
 import os
 import zipfile
 from functools import partial
@@ -34,10 +35,32 @@ def _split_header(header, path):
         return "vertex", 1
     if len(cols) >= 4 and cols[:3] == ["x", "y", "z"]:
         return "points", 3
-    raise ReadError(
-        f"{Path(path).name}: header {','.join(header)!r} is neither 'vertex,value[,...]' nor "
-        f"'x,y,z,value[,...]'; add such a header line"
-    )
+    raise ReadError(f"{Path(path).name}: {_header_problem(header, cols)}")
+
+
+def _header_problem(header, cols):
+    """What is wrong with a sample file's header, naming the column and the expected name nearest to it."""
+    shown = ",".join(h.strip() for h in header)
+    if len(cols) < 2 or (all(_is_number(c) for c in cols) and cols):
+        return f"the first line {shown!r} is not a header; add one such as vertex,value or x,y,z,value"
+    if cols[0] in ("x", "y", "z") or (len(cols) >= 3 and difflib.get_close_matches(cols[0], ["x"], cutoff=0.5)):
+        want = ["x", "y", "z"]
+        for j, (got, exp) in enumerate(zip(cols[:3], want)):
+            if got != exp:
+                return f"header {shown!r}: column {j + 1} is {header[j].strip()!r}, not {exp!r}; rename it {exp!r}"
+        return f"header {shown!r} has positions x,y,z but no value column; add one (x,y,z,value)"
+    close = difflib.get_close_matches(cols[0], _VERTEX_COLUMNS, n=1, cutoff=0.5)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return (f"header {shown!r}: the first column {header[0].strip()!r} is neither 'vertex'{hint} nor 'x'; a header is "
+            f"vertex,value[,...] (vertex indices) or x,y,z,value[,...] (positions): rename it")
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _read_label(path, n):
@@ -309,12 +332,12 @@ for _fmt in (
            extra="neuro"),
     # samples: read(path, n) -> (kind, table, names, CSV line numbers or None)
     Format("CSV", "samples", (".csv",), _read_csv_samples, text=True),
-    Format("NumPy archive", "samples", (".npz",), _read_npz_samples, times=True),  # 'times' beside the values
+    Format("NumPy archive", "samples", (".npz",), _read_npz_samples, times=True, container="zip"),  # its .times.
     Format("NumPy array", "samples", (".npy",), _read_npy_samples),
     Format("GIfTI", "samples", (".gii",), _vertex_data(read_gifti_data), extra="neuro"),
     Format("MGH", "samples", (".mgh",), _vertex_data(read_mgh_data), extra="neuro"),
     Format("MGZ", "samples", (".mgz", ".mgh.gz"), _vertex_data(partial(read_mgh_data, compressed=True)),
-           extra="neuro"),
+           container="gzip", extra="neuro"),
     Format("FreeSurfer label", "samples", (".label",), _read_label, extra="neuro"),
     Format("FreeSurfer morphometry", "samples", MORPH_SUFFIXES, _vertex_data(partial(read_morph_data, named=True)),
            extra="neuro"),

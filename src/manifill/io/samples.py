@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import MeshError, ReadError, SampleError
 from ..surface.options import PointOptions
 from ..surface.samples import Samples
-from .files import check_input_file
+from .files import check_input_file, check_not_foreign
 from .formats import find_format, lookup
 from .neuro import sniff
 from .sample_formats import (MORPH, SAMPLE_FORMATS, VALUE_FORMATS, load_npy, load_npz,  # noqa: F401 (shown here)
@@ -143,6 +143,8 @@ def read_sample_table(path, n):
     path = Path(path)
     fmt = _sample_format(path)
     check_input_file(path)
+    check_not_foreign(path, f"a {fmt.name} file of samples", "samples", archive=fmt.container == "zip",
+                      gzip=fmt.container == "gzip")
     return SampleTable(*fmt.read(path, n))
 
 

@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 from ..errors import SampleError
 from ..tolerances import TOL
 from ..validate import bbox_diagonal, unit_scale
-from .samples import distance_limit, refuse_far, sample_positions
+from .samples import distance_limit, position_span, refuse_far, sample_positions
 
 __all__ = ["SurfacePoints", "locate_points", "closest_on_triangles"]
 
@@ -168,7 +168,7 @@ def locate_points(V, F, points, *, max_distance=None):
         refuse_far(dist, min(limit, np.finfo(float).max), diag, "the surface")
     vdist, nearest_vertex = vtree.query(Ps)
     if cloud:
-        refuse_far(vdist * sc, limit, diag, "the point cloud")
+        refuse_far(vdist * sc, limit, diag, "the point cloud", span=position_span(P))
         k, nv = len(P), nearest_vertex.astype(np.int64)
         bary = np.zeros((k, 3))
         bary[:, 0] = 1.0
@@ -219,7 +219,7 @@ def locate_points(V, F, points, *, max_distance=None):
     bary[at, top[at]] = 1.0
     corners = F[faces]
     vertex = np.where(at, corners[np.arange(k), top], -1)
-    refuse_far(dist, limit, diag, "the surface")
+    refuse_far(dist, limit, diag, "the surface", span=position_span(P))
     return SurfacePoints(faces=faces, corners=corners, bary=bary, points=Q * sc, distance=dist,
                          nearest_vertex=nearest_vertex.astype(np.int64), vertex=vertex.astype(np.int64),
                          vertex_distance=vdist * sc)

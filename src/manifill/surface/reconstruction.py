@@ -94,7 +94,10 @@ class Reconstruction(Result):
             g = inner._gradient(np.asarray(inner.values), at)
             if at == "cells":
                 return g
-            g = self.cut.values(g)
+            g = self.cut.values(g)  # a barrier vertex: the mean of its sides' gradients, tangent to neither side
+            N = vertex_normals(self.cut.V_full, self.cut.F_full)  # the whole mesh's normal there
+            N = N if g.ndim == 2 else N[:, None, :]
+            g = g - np.sum(g * N, axis=-1, keepdims=True) * N
             return g if self.compact is None else self.compact.full(g)
         if self.cloud is not None:
             if at == "cells":

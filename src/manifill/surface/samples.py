@@ -10,7 +10,8 @@ from ..results import field_names
 from ..tolerances import TOL
 from ..validate import first_entries, as_samples, as_values, bbox_diagonal, unit_scale
 
-__all__ = ["Samples", "snap_to_vertices", "sample_positions", "distance_limit", "refuse_far", "field_names"]
+__all__ = ["Samples", "snap_to_vertices", "sample_positions", "distance_limit", "refuse_far", "position_span",
+           "field_names"]
 
 
 @dataclass
@@ -186,8 +187,14 @@ def snap_to_vertices(V, points, *, max_distance=None):
         d = P[out] - V[0]
         m = np.abs(d).max(axis=1, keepdims=True)
         dist[out] = m[:, 0] * np.linalg.norm(d / m, axis=1)
-    refuse_far(dist, limit, diag, "the nearest vertex")
+    refuse_far(dist, limit, diag, "the nearest vertex", span=position_span(P))
     return idx.astype(np.int64), dist
+
+
+def position_span(P):
+    """The positions' bounding-box diagonal (inf if it overflows)."""
+    with np.errstate(all="ignore"):
+        return float(np.linalg.norm(np.nanmax(P, axis=0) - np.nanmin(P, axis=0))) if len(P) > 1 else None
 
 
 def sample_positions(V, points):
@@ -261,8 +268,9 @@ def distance_limit(tree, sc, diag, max_distance=None):
 
 def refuse_far(dist, limit, diag, what, *, lead="{n} samples lie far from the mesh", row="row",
                fix="Rescale the positions or the mesh, or raise the limit (max_distance, CLI: --max-distance)",
-               error=SampleError):
-    """Raise if a distance exceeds ``limit``: one line with the worst row, its ratio to the mesh and "wrong units?".
+               error=SampleError, span=None):
+    """Raise if a distance exceeds ``limit``: one line with the worst row, its ratio to the mesh and "wrong units?"
+    (with ``span``, the positions' own size, the factor between the two: millimetres on a metre mesh say 0.001).
 
     Parameters
     ----------
@@ -277,6 +285,9 @@ def refuse_far(dist, limit, diag, what, *, lead="{n} samples lie far from the me
         positions say theirs.
     error : type, optional
         The exception raised.
+    span : float, optional
+        The positions' bounding-box diagonal: when it is a power of ten or more away from the mesh's, the message
+        gives that factor.
 
     Raises
     ------
@@ -290,8 +301,22 @@ def refuse_far(dist, limit, diag, what, *, lead="{n} samples lie far from the me
             ratio = dist[i] / diag
         raise error(
             f"{lead.format(n=far.size)} ({row} {i}: {dist[i]:.3g} from {what}, "
-            f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units? {fix}"
+            f"{ratio:.3g} x the mesh's size {diag:.3g}; accepted: {limit:.3g}); wrong units?{_units(span, diag)} {fix}"
         )
+
+
+def _units(span, diag):
+    """`` the positions span about 1000 x the mesh's size: scale them by 0.001 (e.g. mm to m)`` or ``""``."""
+    with np.errstate(all="ignore"):
+        r = None if span is None or not diag else float(span) / float(diag)
+    if r is None or not np.isfinite(r) or r <= 0:
+        return ""
+    k = int(np.round(np.log10(r)))
+    if abs(k) < 1 or abs(np.log10(r) - k) > 0.3:  # not near a power of ten
+        return ""
+    names = {3: " (e.g. mm to m)", 2: " (e.g. cm to m)", 1: " (e.g. mm to cm)", -3: " (e.g. m to mm)",
+             -2: " (e.g. m to cm)", -1: " (e.g. cm to mm)"}
+    return f" The positions span about {10.0 ** k:g} x the mesh's size: scale them by {10.0 ** -k:g}{names.get(k, '')}."
 
 
 def weights_by_vertex(idx, w, vertices):

@@ -83,7 +83,7 @@ def far_points(V, k, seed):
     return np.array(sorted(chosen))
 
 
-def paper_figures(out, field, label):
+def paper_figures(out, field, label, *, into=None):
     """The paper's examples on pyvista's meshes, as PNGs, plus ``viewer.html``; returns files and report lines.
 
     Parameters
@@ -95,6 +95,8 @@ def paper_figures(out, field, label):
         at a few vertices and the error of each reconstruction is measured on it).
     label : str
         The field's formula, for the report lines.
+    into : dict, optional
+        Filled as the work goes (``files``, ``lines``): what was written before an ImportError stops it.
 
     Returns
     -------
@@ -106,9 +108,11 @@ def paper_figures(out, field, label):
     ImportError
         Without pyvista.
     """
+    into = {} if into is None else into
+    files, lines = into.setdefault("files", []), into.setdefault("lines", [])
     _ = __import__("pyvista")
     out = Path(out)
-    files, lines = [], [f"  the paper's examples on pyvista's meshes (field {label}):"]
+    lines.append(f"  the paper's examples on pyvista's meshes (field {label}):")
 
     def err(x, truth, fixed):
         free = np.ones(len(truth), dtype=bool)
@@ -202,4 +206,5 @@ def paper_figures(out, field, label):
     fill = vol.report["fill"]
     lines.append(f"    solid: the nut voxelised at {vol.values.shape}, {fill['voxels']:,} voxels filled from "
                  f"{fill['fixed']:,} boundary voxels ({fill['iterations'][0]} multigrid iterations) -> {path.name}")
-    return {"files": [str(f) for f in files], "lines": lines}
+    into["files"] = [str(f) for f in files]
+    return into

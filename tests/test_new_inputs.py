@@ -115,7 +115,7 @@ def test_globe_an_empty_cell_is_a_station_without_a_value_and_a_text_column_is_l
     import xarray as xr
 
     back = xr.open_dataset(tmp_path / "o.nc")
-    assert list(back["field"].values) == ["t1", "t2"] and np.isfinite(back["value"].values).all()
+    assert list(back["time"].values) == [1, 2] and np.isfinite(back["value"].values).all()  # t1, t2: time steps
 
 
 @pytest.mark.parametrize("method", ["gvf", "gvf-harmonic", "hessian", "default", "biharmonic"])

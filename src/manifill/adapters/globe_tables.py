@@ -29,9 +29,7 @@ def table_stations(data, var, lon, lat, station, time):
     where = numbers(data[lon], lon, strict=True), numbers(data[lat], lat, strict=True)
     steps = column_times(cols) if len(cols) > 1 else None
     if steps is not None:  # the columns are time steps of one field
-        name = _stem(cols) or "value"
-        check_name(name, var)
-        return (*where, values, _time_coordinate(steps, time), name, {})
+        return (*where, values, _time_coordinate(steps, time), "value", {"long_name": "value at each time step"})
     name = str(cols[0]) if len(cols) == 1 else "value"
     check_name(name, var)
     return (*where, values, None, name, {"fields": [str(c) for c in cols]})
@@ -100,12 +98,6 @@ def column_times(names):
         dates = pandas.to_datetime(texts, errors="coerce")
         return None if dates.isna().any() or dates.has_duplicates else dates.to_numpy()
     return None
-
-
-def _stem(cols):
-    m = re.fullmatch(r"(.*?)[_ ]?(\d+)", str(cols[0]))
-    stem = m.group(1) if m else ""
-    return stem if stem and stem not in COORDINATES else None
 
 
 def _time_coordinate(steps, time):

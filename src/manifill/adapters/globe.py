@@ -45,13 +45,25 @@ EDGE_DEGREES = 63.43
 
 
 def lonlat_to_xyz(lon, lat):
-    """Unit vectors of longitudes and latitudes in degrees: ``(k, 3)``."""
+    """Unit vectors of longitudes and latitudes in degrees: ``(k, 3)``.
+
+    Parameters
+    ----------
+    lon, lat : (k,) array_like of float
+        Degrees east and north.
+    """
     lo, la = np.radians(np.asarray(lon, dtype=np.float64)), np.radians(np.asarray(lat, dtype=np.float64))
     return np.column_stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)])
 
 
 def xyz_to_lonlat(P):
-    """Longitudes in ``[-180, 180)`` and latitudes of points ``(k, 3)``, degrees."""
+    """Longitudes in ``[-180, 180)`` and latitudes of points, degrees.
+
+    Parameters
+    ----------
+    P : (k, 3) array_like of float
+        Points (any distance from the centre).
+    """
     P = np.asarray(P, dtype=np.float64)
     lon = np.degrees(np.arctan2(P[:, 1], P[:, 0]))
     lat = np.degrees(np.arcsin(np.clip(P[:, 2] / np.linalg.norm(P, axis=1), -1.0, 1.0)))
@@ -100,6 +112,11 @@ def _globe_level(grid, lons, lats):
 
 def globe_mesh(resolution=1.0):
     """The unit icosphere whose edges are at most about ``resolution`` degrees (level 6 for 1 degree: 40,962 vertices).
+
+    Parameters
+    ----------
+    resolution : float, optional
+        The largest edge, in degrees of arc.
 
     Examples
     --------
@@ -257,7 +274,15 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
 
 def write_netcdf(field, path):
     """Write a :func:`reconstruct_globe` result as netCDF, its ``Conventions``, ``source`` and ``history`` global
-    (as CF puts them), through xarray's ``to_netcdf``."""
+    (as CF puts them), its coordinates without a fill value, through xarray's ``to_netcdf``, atomically.
+
+    Parameters
+    ----------
+    field : xarray.DataArray or xarray.Dataset
+        What :func:`reconstruct_globe` returned.
+    path : str or Path
+        The ``.nc`` file.
+    """
     ds = field if hasattr(field, "data_vars") else field.to_dataset()
     glob = {k: v for k, v in (field.attrs if not hasattr(field, "data_vars") else ds.attrs).items()
             if k in ("Conventions", "source", "history", "comment")}
@@ -359,6 +384,19 @@ def _reconstruct(V, F, tree, P, vals, method, options, snap=True):
 def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat="lat", command=None, **options):
     """``manifill globe``: a CSV of stations (``lon``, ``lat``, value columns) or a netCDF of them (a ``station``
     dimension) to a netCDF on a regular grid; returns a one-line summary.
+
+    Parameters
+    ----------
+    stations : str or Path
+        The CSV (wide: one row per station; long: a ``time`` column) or netCDF of stations.
+    out : str or Path
+        The ``.nc`` file to write.
+    var, grid, method, lon, lat
+        As :func:`reconstruct_globe`.
+    command : str, optional
+        The command line that asked for it, for the file's ``history``.
+    **options
+        More options of :func:`manifill.reconstruct`.
 
     Raises
     ------

@@ -89,6 +89,13 @@ def _surface_of(surface):
 def electrodes(info, picks=None):
     """``(names, positions (k, 3))`` of the EEG channels of ``info`` (all, or ``picks`` by name), head frame.
 
+    Parameters
+    ----------
+    info : mne.Info
+        The recording's measurement info (its montage gives the positions).
+    picks : list of str, optional
+        Channel names (default: every EEG channel).
+
     Raises
     ------
     OptionError
@@ -248,6 +255,19 @@ def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic"
     into the copy. ``reset_bads`` takes the channels filled out of
     ``info['bads']`` (other bads, EOG or MEG, stay). With no bad EEG channel the copy comes back unchanged.
 
+    Parameters
+    ----------
+    inst : mne.io.Raw, mne.Epochs or mne.Evoked
+        The recording; its bad EEG channels are ``info['bads']``.
+    reset_bads : bool, optional
+        Take the filled channels out of ``info['bads']`` (default).
+    surface : (V, F) or None, optional
+        The scalp to interpolate on, in the head frame (default: the shipped fsaverage scalp).
+    method : str, optional
+        A method of :func:`manifill.reconstruct` that is linear in the values (default ``'biharmonic'``).
+    **options
+        More options of :func:`manifill.reconstruct` (``max_distance`` defaults to the scalp's tolerance).
+
     Raises
     ------
     OptionError
@@ -348,7 +368,19 @@ def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **option
 
 def to_surface(inst, *, surface=None, method="biharmonic", **options):
     """The EEG field over the whole scalp: a :class:`manifill.Reconstruction` of ``(n_vertices, n_times)`` values
-    (an ``Epochs``: its average), from the good channels."""
+    (an ``Epochs``: its average), from the good channels.
+
+    Parameters
+    ----------
+    inst : mne.io.Raw, mne.Epochs or mne.Evoked
+        The recording (an ``Epochs`` is averaged first).
+    surface : (V, F) or None, optional
+        The scalp, in the head frame (default: the shipped fsaverage scalp).
+    method : str, optional
+        Any method of :func:`manifill.reconstruct` (default ``'biharmonic'``).
+    **options
+        More options of :func:`manifill.reconstruct`.
+    """
     bads, good = _eeg_bads(inst)
     evoked = inst.average() if isinstance(inst, mne.BaseEpochs) else inst
     V, F = head_surface(surface)

@@ -50,6 +50,11 @@ class VolumeReconstruction(Result):
     std, trusted : numpy arrays or None
         ``method='gp'`` (:mod:`manifill.solid.gp`): the posterior std, shaped like ``values``
         (written as ``<field>_std``), and with ``trust=`` the ``trusted`` mask.
+    names : list of str or None
+        The fields' names (``value, value2, ...`` when None).
+    drawer : callable or None
+        ``(count, seed) ->`` posterior draws shaped like ``values`` plus a draws axis (the solid's gp), for
+        :meth:`sample`; None otherwise.
 
     Examples
     --------

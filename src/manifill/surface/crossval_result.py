@@ -44,6 +44,12 @@ class CrossValidation:
         Number of samples.
     labels : (k,) int64 numpy array
         The fold of every sample (in the order of the sorted sample vertices).
+    hints : dict of str to str
+        Label -> what the method's win suggests (its ``cv_hint``: for rbf, a field that lives in space).
+    overshoot : dict of str to float
+        Label -> the farthest any fold's fit left its training samples' range, as a fraction of that range.
+    field_fold_errors : dict of str to (folds, p) numpy array
+        Label -> each fold's error per field.
     """
 
     methods: list

@@ -34,9 +34,10 @@ def reconstruct_surface(surface, idx, vals, *, options=None, points=None, fields
     vals : (k, p) float64 numpy array
         Sample values, one column per field (always two-dimensional).
     options : Options, optional
-        The options (:class:`manifill.surface.options.Options`); ``**keywords`` (those of
-        :func:`manifill.reconstruct`: ``method``, ``solver``, ``bounds``, ...) build them, or
-        change the given ones.
+        The options (:class:`manifill.surface.options.Options`), built once.
+    **keywords
+        The options of :func:`manifill.reconstruct` (``method``, ``solver``, ``bounds``, ...): they build the
+        options, or change the given ones.
     points : PointSamples, optional
         Samples given as positions (:func:`manifill.surface.points.point_samples`);
         ``idx`` and ``vals`` are then their nearest vertices (the partition

@@ -51,8 +51,9 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
     ----------
     V : (n, 3) array_like
         Vertex positions.
-    F : (m, 3) array_like of int
-        Triangles, any integer dtype.
+    F : (m, 3) array_like of int, or None
+        Triangles, any integer dtype; None for a point cloud (points without faces: its operators come from each
+        point's nearest neighbours, see ``neighbours``; ``report['cloud']`` describes them).
     idx : (k,) array_like of int, or (k, 3) array_like of float
         Sample vertices, or sample positions (``(k, 2)`` on a flat mesh), each
         located at its closest surface point (:func:`manifill.surface.locate.locate_points`;
@@ -70,22 +71,24 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
         (:class:`manifill.surface.options.Options`); keywords given beside it change it.
     method : {None, 'default', 'gvf-harmonic', 'harmonic', 'biharmonic', 'triharmonic', 'hessian', \
 'hessian-curved', 'gvf', 'rbf', 'gp', 'auto'}
-        None or ``'default'``: the default preset (:mod:`manifill.surface.methods.default`), chosen by
-        measurement: the biharmonic with ``bounds='samples'`` and ``bounds_mode='project'`` (each unless given;
-        on a surface without triangles, the paper's pipeline with monotone curve values, bounded;
-        ``report['preset']`` is ``'default'`` and ``report['default']`` True). Each method is one
-        object of the registry (:mod:`manifill.surface.methods.registry`). The whole pipeline
-        (the paper's method, unbounded unless ``bounds`` is given); harmonic, biharmonic or triharmonic with the
-        samples alone fixed (the k-harmonic energy,
-        :mod:`manifill.surface.energy_fill`); the squared Hessian with the samples fixed (``hessian``, flat;
-        ``hessian-curved``, libigl's, the ``[hessian]`` extra: no bending at a surface's boundary,
-        :mod:`manifill.mesh.hessian`); the gradually varied fit of
-        the whole surface (every vertex but the samples on a level); the
-        thin-plate spline on the positions, for fields that live in space
-        (:mod:`manifill.surface.rbf`; ``smoothing`` a number); or the
-        default unless another candidate's 5-fold cross-validation error is lower by more than one
-        standard error, field by field (:mod:`manifill.surface.methods.auto`; ``report['auto']`` gives the
-        table and the choice of every field).
+        Each method is one object of the registry (:mod:`manifill.surface.methods.registry`):
+
+        - None or ``'default'``: the default preset, chosen by measurement
+          (:mod:`manifill.surface.methods.default`): the biharmonic with ``bounds='samples'`` and
+          ``bounds_mode='project'`` (each unless given); on a surface without triangles, the paper's pipeline
+          with monotone curve values, bounded. ``report['preset']`` is ``'default'``.
+        - ``'gvf-harmonic'``: the paper's whole pipeline (Steps 1-6), unbounded unless ``bounds`` is given.
+        - ``'harmonic'``, ``'biharmonic'``, ``'triharmonic'``: the k-harmonic energy with the samples alone
+          fixed (:mod:`manifill.surface.energy_fill`).
+        - ``'hessian'``, ``'hessian-curved'``: the squared Hessian with the samples fixed (flat; libigl's
+          curved one, the ``[hessian]`` extra: no bending at a surface's boundary, :mod:`manifill.mesh.hessian`).
+        - ``'gvf'``: the gradually varied fit of the whole surface (every vertex but the samples on a level).
+        - ``'rbf'``: the thin-plate spline on the positions, for fields that live in space
+          (:mod:`manifill.surface.rbf`; ``smoothing`` a number).
+        - ``'gp'``: a Matérn Gaussian process: its mean, and its std (see ``gp``).
+        - ``'auto'``: the default unless another candidate's 5-fold cross-validation error is lower by more
+          than one standard error, field by field (:mod:`manifill.surface.methods.auto`; ``report['auto']``
+          gives the table and the choice of every field).
     partition : {'delaunay', 'cycle', 'tree'}, optional
         How the curves are drawn (:mod:`manifill.surface.partition`).
     weights : {'cotan', 'uniform', 'intrinsic', 'robust'}, optional
@@ -137,6 +140,14 @@ def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
         gives lambda and the residuals at the samples.
     sample_weights : (k,) array_like of float, optional
         Weights of the soft constraints (with ``smoothing``).
+    neighbours : int, optional
+        A point cloud's nearest neighbours per point (at least 6; default 16), for its Laplacian, mass and graph.
+    barriers : list of (l,) int arrays, list of (l, 3) arrays, (m,) int array, str or Path, optional
+        Lines the field must not cross: paths of vertex indices, polylines of positions (snapped to vertices), per-face
+        labels (a barrier between faces of different labels), or a file of them
+        (:func:`manifill.io.read_barriers`). The mesh is cut along them (:mod:`manifill.surface.barriers`); a sample
+        on a barrier holds on both sides; with ``method='gp'`` and ``gp={'barrier': 'bakka'}``, Bakka's model
+        instead.
     max_distance : float, optional
         For sample positions: the largest accepted distance to the surface (the
         default as for :func:`manifill.surface.samples.snap_to_vertices`).

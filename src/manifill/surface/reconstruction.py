@@ -57,6 +57,11 @@ class Reconstruction(Result):
     source : object or None
         The mesh object the reconstruction was given (a pyvista, trimesh or meshio mesh), whose own
         per-vertex (and per-face) arrays :meth:`to_pyvista` and :meth:`to_meshio` carry over.
+    made_by, compact, cloud, cut, on_cut, barrier_faces : object or None
+        How it was made, for its own methods (not written to files): the method (its draws for
+        :meth:`sample`); the renumbering of a mesh with vertices used by no face; a point cloud's neighbourhoods
+        and operators; the mesh cut along ``barriers=`` and the result on it (for its gradient); the faces along
+        the barriers of the gp's Bakka model.
     """
 
     values: np.ndarray

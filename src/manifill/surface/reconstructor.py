@@ -64,6 +64,8 @@ class Reconstructor:
         linear curve values are one sparse map.
     prepare : bool, optional
         Build the solver now (True) or at the first :meth:`apply`.
+    progress : callable, optional
+        Called with the name of each step of the preparation as it starts.
 
     Attributes
     ----------

@@ -50,6 +50,11 @@ def names(presets=True):
 def method_of(name):
     """The :class:`~manifill.surface.methods.base.Method` of a name (a preset's name gives its method).
 
+    Parameters
+    ----------
+    name : str or None
+        A method's or a preset's name (:func:`names`); None is the default preset.
+
     Examples
     --------
     >>> method_of("biharmonic").can_bound, method_of(None).name

@@ -19,7 +19,8 @@ from pathlib import Path
 
 from . import accuracy, speed
 
-PACKAGES = ("numpy", "scipy", "pyamg", "libigl", "pypardiso", "manifill", "meshio", "pyvista", "matplotlib", "potpourri3d",
+PACKAGES = ("numpy", "scipy", "pyamg", "libigl", "pypardiso", "manifill", "meshio", "pyvista", "matplotlib",
+            "potpourri3d",
             "mne")
 
 

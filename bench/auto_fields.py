@@ -42,7 +42,7 @@ def main(argv=None):
         Y = np.column_stack([t[idx] for t in truths.values()])
         r = reconstruct(V, F, idx, Y, method="auto", seed=seed)
         for j, (name, t) in enumerate(truths.items()):
-            def err(x):
+            def err(x, t=t, free=free):
                 return float(np.sqrt(np.mean((x[free] - t[free]) ** 2)) / np.ptp(t))
             single = [err(reconstruct(V, F, idx, Y[:, j], method=n, **o).values) for n, o in AUTO_CANDIDATES]
             a = err(r.values[:, j])

@@ -92,19 +92,22 @@ def main(argv=None):
             for name, f in fields.items():
                 vals = f[idx]
                 lo, hi = vals.min(), vals.max()
-                t_pipe, rp = _timed(lambda: reconstruct(V, F, idx, vals, **PIPELINE), args.repeat)
+                t_pipe, rp = _timed(lambda V=V, F=F, idx=idx, vals=vals: reconstruct(V, F, idx, vals, **PIPELINE),
+                                        args.repeat)
                 rows = [("pipeline (earlier default)", t_pipe, rp.values)]
                 t_k2 = None
                 if not args.no_igl:
-                    t1, x1 = _timed(lambda: _igl(V, F, idx, vals, 1), 1)
-                    t_k2, x2 = _timed(lambda: _igl(V, F, idx, vals, 2), 1)
+                    t1, x1 = _timed(lambda V=V, F=F, idx=idx, vals=vals: _igl(V, F, idx, vals, 1), 1)
+                    t_k2, x2 = _timed(lambda V=V, F=F, idx=idx, vals=vals: _igl(V, F, idx, vals, 2), 1)
                     rows += [("libigl harmonic k=1", t1, x1), ("libigl harmonic k=2", t_k2, x2),
                              ("libigl k=2 clipped", t_k2, np.clip(x2, lo, hi))]
                 for cand, scipy_only in runs:
                     if scipy_only:
                         os.environ[DIRECT_ENV] = "superlu"
                     try:
-                        t, r = _timed(lambda: reconstruct(V, F, idx, vals, **CANDIDATES[cand]), args.repeat)
+                        t, r = _timed(lambda V=V, F=F, idx=idx, vals=vals, cand=cand: reconstruct(V, F, idx, vals,
+                                                                                         **CANDIDATES[cand]),
+                                  args.repeat)
                     finally:
                         os.environ.pop(DIRECT_ENV, None)
                     rows.append((cand + (" (SciPy alone)" if scipy_only else ""), t, r.values))

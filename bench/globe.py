@@ -2,7 +2,8 @@
 
 ``python -m bench.globe [--stations 500] [--days 365] [--grid 1.0]``: stations uniform on the sphere, a smooth field
 drifting day by day, ``manifill.adapters.globe.reconstruct_globe`` (biharmonic) to a CF lon/lat grid, written with
-``write_netcdf`` (xarray's ``to_netcdf``, CF's global attributes) and opened again by xarray; the error on the grid beside the same method's on the mesh's vertices.
+``write_netcdf`` (xarray's ``to_netcdf``, CF's global attributes) and opened again by xarray; the error on the
+grid beside the same method's on the mesh's vertices.
 """
 
 import argparse

@@ -214,7 +214,8 @@ def main(argv=None):
     ap.add_argument("--parts", default="prior,noise,exact,cases")
     ap.add_argument("--cases", default="sphere-smooth,head-eeg,globe-image,airplane,sphere-noisy")
     ap.add_argument("--ks", default="100", help="k of the random-sample cases (head-eeg: --head-ks)")
-    ap.add_argument("--head-ks", default="min,max", help="montage sizes of head-eeg (default: the smallest and largest)")
+    ap.add_argument("--head-ks", default="min,max",
+                    help="montage sizes of head-eeg (default: the smallest and largest)")
     ap.add_argument("--save", default=None, help="JSON file, rewritten after every step")
     args = ap.parse_args(argv)
     from manifill.mesh.shapes import icosphere

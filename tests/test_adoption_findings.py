@@ -31,8 +31,8 @@ def test_an_image_pdf_or_archive_given_as_mesh_or_samples_is_named(sphere, capsy
     (d / "scan.ply").write_bytes(head + b"\0" * 64)
     (d / "s.csv").write_bytes(head + b"\0" * 64)
     code, out, err = run(capsys, "reconstruct", d / "scan.ply", d / "s.csv", "-o", d / "o.vtu")
-    assert assert_usage_error(code, out, err) == f"manifill: error: scan.ply is {kind}, not a PLY mesh; pass the mesh " \
-                                                 f"file itself"
+    line = assert_usage_error(code, out, err)
+    assert line == f"manifill: error: scan.ply is {kind}, not a PLY mesh; pass the mesh file itself"
     code, out, err = run(capsys, "reconstruct", d / "s.ply", d / "s.csv", "-o", d / "o.vtu")
     assert f"s.csv is {kind}, not a CSV file of samples" in assert_usage_error(code, out, err)
     assert not (d / "o.vtu").exists()

@@ -213,7 +213,8 @@ def test_a_manifest_writing_to_a_new_folder_works_as_written(tmp_path, inputs, c
     result = manifill.batch(js, scheduler=client, summary=tmp_path / "s.csv")
     status = {r["id"]: r for r in result.rows}
     assert status["a"]["status"] == status["b"]["status"] == "done" and (out / "a.vtu").exists()
-    assert status["blocked"]["status"] == "failed" and "could not make the folder of x.vtu" in status["blocked"]["error"]
+    assert status["blocked"]["status"] == "failed"
+    assert "could not make the folder of x.vtu" in status["blocked"]["error"]
 
 
 def test_an_interrupted_batch_keeps_every_finished_job_in_its_summary(tmp_path, inputs, client):
@@ -270,7 +271,8 @@ def test_a_killed_worker_leaves_no_warning_on_the_command_lines_stderr(tmp_path,
                                        f"b,{inputs / 'sphere.ply'},{inputs / 's2.csv'},out/b.vtu,\n")
     flag = tmp_path / "killed.flag"
     proc = subprocess.run([sys.executable, "-m", "manifill", "batch", "jobs.csv", "--workers", "2"], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=300, env=dict(os.environ, **{KILL_ONCE_ENV: str(flag)}))
+                          capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, **{KILL_ONCE_ENV: str(flag)}))
     assert proc.returncode == 0 and flag.exists(), proc.stderr  # a worker was killed, and its job retried
     assert proc.stderr == ""
     assert (tmp_path / "out" / "a.vtu").exists() and (tmp_path / "out" / "b.vtu").exists()

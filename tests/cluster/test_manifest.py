@@ -125,7 +125,8 @@ OLD = {"max_snap": "max_distance", "max-snap": "max_distance"}
     ("check", "false", ()),
 ])
 def test_a_toml_key_is_its_flag(tmp_path, key, value, want):
-    path = write(tmp_path / "j.toml", f'[[job]]\nmesh = "m.ply"\nsamples = "s.csv"\noutput = "o.vtu"\n{key} = {value}\n')
+    path = write(tmp_path / "j.toml",
+                 f'[[job]]\nmesh = "m.ply"\nsamples = "s.csv"\noutput = "o.vtu"\n{key} = {value}\n')
     (job,) = read_manifest(path)
     assert job.options == want
     namespace(job.argv())  # the real parser accepts it

@@ -117,8 +117,8 @@ def test_a_truncated_binary_stl_gives_its_count_and_size(tmp_path):
     f = tmp_path / "b.stl"
     meshio.write(f, meshio.Mesh(V0, [("triangle", F0)]), binary=True)
     f.write_bytes(f.read_bytes()[:-7])
-    with pytest.raises(ReadError, match=rf"nor binary: its header gives 80 triangles, 4084 bytes, and the file has "
-                                        rf"4077\); the file is truncated or damaged"):
+    with pytest.raises(ReadError, match=r"nor binary: its header gives 80 triangles, 4084 bytes, and the file has "
+                                        r"4077\); the file is truncated or damaged"):
         read_mesh_file(f)
 
 

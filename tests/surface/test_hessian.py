@@ -8,7 +8,7 @@ import manifill
 from conftest import icosphere
 from manifill import OptionError
 from manifill.linalg.quadratic import QuadraticSolver
-from manifill.mesh.hessian import curved_hessian_energy, hessian_energy
+from manifill.mesh.hessian import hessian_energy
 from manifill.mesh.shapes import grid
 
 igl = pytest.importorskip("igl")

@@ -262,7 +262,8 @@ def test_auto_factorises_the_biharmonic_wherever_pardisos_factor_fits(monkeypatc
 
     big = 655_000
     monkeypatch.setattr(ph, "direct_factoriser", lambda: "pardiso")
-    monkeypatch.setattr(ph, "available_bytes", lambda: 2 * ph.lu_memory(big, ph.PolyharmonicSolver.BIHARMONIC_ROW * big))
+    monkeypatch.setattr(ph, "available_bytes",
+                        lambda: 2 * ph.lu_memory(big, ph.PolyharmonicSolver.BIHARMONIC_ROW * big))
     assert ph.PolyharmonicSolver.settings(2, big)[0] == "direct"
     assert ph.PolyharmonicSolver.settings(2, 2 * big)[0] == "amg"  # its factor would take more than half
     monkeypatch.setattr(ph, "direct_factoriser", lambda: "superlu")

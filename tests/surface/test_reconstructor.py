@@ -198,7 +198,8 @@ def test_many_fields_factorise_a_fourth_order_kkt_system_with_either_factoriser(
         monkeypatch.setenv(backends.DIRECT_ENV, name)
         assert backends.auto_backend(100_000, 700_000, fields=backends.AUTO_DIRECT_FIELDS, rows=True) == "direct"
         assert backends.auto_backend(100_000, 700_000, fields=backends.AUTO_DIRECT_FIELDS - 1, rows=True) == "amg"
-        assert backends.auto_backend(10**9, 7 * 10**9, fields=backends.AUTO_DIRECT_FIELDS, rows=True) == "amg"  # the factors do not fit
+        # the factors do not fit
+        assert backends.auto_backend(10**9, 7 * 10**9, fields=backends.AUTO_DIRECT_FIELDS, rows=True) == "amg"
 
 
 def test_many_fields_inside_faces_of_a_large_mesh_are_factorised_and_meet_their_points():

@@ -80,9 +80,11 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
         try:
             A = np.asarray(X, dtype=np.float64)
         except (TypeError, ValueError):
-            raise SampleError("X could not be read as numbers; pass (k, 1) vertex indices or (k, 3) positions")
+            raise SampleError("X could not be read as numbers; pass (k, 1) vertex indices or (k, 3) positions") \
+                from None
         if A.ndim != 2 or A.shape[1] not in (1, 3) or len(A) == 0:
-            raise SampleError(f"X has shape {A.shape}; pass (k, 1) vertex indices or (k, 3) positions on the surface")
+            raise SampleError(f"X has shape {A.shape}; pass (k, 1) vertex indices or (k, 3) positions on the "
+                              f"surface")
         if not np.isfinite(A).all():
             raise SampleError("X holds NaN or infinite entries; pass finite vertex indices or positions")
         if not fitting and A.shape[1] != self.n_features_in_:

@@ -226,7 +226,7 @@ def _collect(distributed, futures, rows):
             distributed.wait(pending, timeout=LAST_RESULTS_SECONDS)
         except Exception:  # noqa: BLE001 - a timeout or a client closing: what has arrived is kept
             pass
-    for future, (job, digest) in futures.items():
+    for future, (job, _digest) in futures.items():
         if job.id not in rows and future.status == "finished":
             try:
                 rows[job.id] = future.result(timeout=LAST_RESULTS_SECONDS)

@@ -129,7 +129,8 @@ class VolumeReconstruction(Result):
 
     def point_data(self, names=None):
         """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
-        return with_std(super().point_data(names), self.std, self.field_names if names is None else names, self.point_ndim)
+        names = self.field_names if names is None else names
+        return with_std(super().point_data(names), self.std, names, self.point_ndim)
 
     def to_pyvista(self, names=None):
         """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).

@@ -100,7 +100,7 @@ def _bar_text(pl, actors, clim, labels, title, names=None):
         ticks, suffix = [((j + 0.5) / len(names), str(t)) for j, t in enumerate(names)], ""
     else:
         ticks, suffix = tick_labels(clim, labels, bar_pixels, 13)
-    for j, (at, label) in enumerate(ticks):
+    for at, label in ticks:
         text = pl.add_text(label, position=(0.2 + 0.6 * at, 0.02), viewport=True, font_size=10, color="black")
         prop = text.GetTextProperty()
         (prop.SetJustificationToLeft if at == 0.0 else prop.SetJustificationToRight if at == 1.0

@@ -47,7 +47,7 @@ def test_an_npz_is_a_zip_and_is_read(sphere):
 
 
 @pytest.mark.parametrize("header, words", [
-    ("x,yy,z,value", "column 2 is 'yy', not 'y'; rename it 'y'"),
+    ("x,yy,z,value", "column 2 is 'yy', not 'y' (positions are x,y,z,value[,...]); rename it 'y'"),
     ("X,Y,Zed,value", "column 3 is 'Zed', not 'z'"),
     ("vertx,value", "the first column 'vertx' is neither 'vertex' (did you mean 'vertex'?) nor 'x'"),
     ("1,2", "the first line '1,2' is not a header"),

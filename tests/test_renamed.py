@@ -11,7 +11,7 @@ import manifill
 RENAMED = [  # module, old name, module of the new name, new name
     ("manifill.surface.reconstruct", "METHODS", "manifill.surface.reconstruct", "METHOD_NAMES"),
     ("manifill.linalg.lamsearch", "grid_search", "manifill.linalg.search", "grid_search"),
-    ("manifill.io", "MeshFormat", "manifill.io.formats", "Format"),
+    ("manifill.io", "MeshFormat", "manifill.io", "Format"),
     ("manifill.surface.polyharmonic", "SOLVERS", "manifill.surface.polyharmonic", "POLYHARMONIC_SOLVERS"),
     ("manifill.surface.polyharmonic", "WEIGHTS", "manifill.mesh.tetmesh", "TET_WEIGHTS"),
     ("manifill.mesh.tetmesh", "WEIGHTS", "manifill.mesh.tetmesh", "TET_WEIGHTS"),

@@ -67,4 +67,4 @@ __all__ = ["KINDS", "Format", "find_format", "formats_of", "register_format", "M
 
 #: Public names renamed, kept one release with a warning (:mod:`manifill.deprecation`): one class for the formats
 #: of every kind.
-__getattr__ = renamed(__name__, {"MeshFormat": "manifill.io.formats:Format"})
+__getattr__ = renamed(__name__, {"MeshFormat": "manifill.io:Format"})

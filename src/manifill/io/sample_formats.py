@@ -47,7 +47,8 @@ def _header_problem(header, cols):
         want = ["x", "y", "z"]
         for j, (got, exp) in enumerate(zip(cols[:3], want)):
             if got != exp:
-                return f"header {shown!r}: column {j + 1} is {header[j].strip()!r}, not {exp!r}; rename it {exp!r}"
+                return (f"header {shown!r}: column {j + 1} is {header[j].strip()!r}, not {exp!r} (positions are "
+                        f"x,y,z,value[,...]); rename it {exp!r}")
         return f"header {shown!r} has positions x,y,z but no value column; add one (x,y,z,value)"
     close = difflib.get_close_matches(cols[0], _VERTEX_COLUMNS, n=1, cutoff=0.5)
     hint = f" (did you mean {close[0]!r}?)" if close else ""

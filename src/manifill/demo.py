@@ -66,7 +66,7 @@ def _relative_rmse(x, truth, free):
     return float(np.sqrt(np.mean((x[free] - truth[free]) ** 2)) / np.ptp(truth))
 
 
-def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
+def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0, pictures=True):
     """Run the demonstration and write its files.
 
     Parameters
@@ -79,6 +79,8 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
         Number of scattered samples for the point-constrained baseline.
     seed : int, optional
         Seed of the scattered samples.
+    pictures : bool, optional
+        Also the paper's figures and the viewer (they need the ``[viz]`` and ``[volume]`` extras).
 
     Returns
     -------
@@ -162,7 +164,8 @@ def run_demo(outdir="manifill-demo", *, level=6, samples=100, seed=0):
     ]
     figures = {}
     try:
-        paper_figures(out, demo_field, "sin(2x) + yz + 0.5 cos(3y)", into=figures)
+        if pictures:
+            paper_figures(out, demo_field, "sin(2x) + yz + 0.5 cos(3y)", into=figures)
     except ImportError as exc:  # what is missing, by name, and what was written before it
         missing = exc.name or str(exc)
         extra = EXTRA_OF.get((exc.name or "").split(".")[0], "all")

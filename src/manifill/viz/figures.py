@@ -146,9 +146,9 @@ def paper_figures(out, field, label, *, into=None):
     r = reconstruct(V, F, idx, truth[idx], **pipe)
     path = out / "fig4_3_gvf_vs_harmonic.png"
     render_panels([dict(V=V, F=F, values=g.values, samples=idx, title="(a) GVF"),
-                   dict(V=V, F=F, values=h.values, samples=idx, title="harmonic from the points"),
-                   dict(V=V, F=F, values=r.values, samples=idx, curves=r.curves, title="(b) harmonic on GVF paths"),
-                   dict(V=V, F=F, values=truth, title="the true field")], path, size=(1600, 450))
+                   dict(V=V, F=F, values=h.values, samples=idx, title="(b) harmonic from the points"),
+                   dict(V=V, F=F, values=r.values, samples=idx, curves=r.curves, title="(c) harmonic on GVF paths"),
+                   dict(V=V, F=F, values=truth, title="(d) the true field")], path, size=(1600, 480))
     files.append(path)
     lines.append(f"    Fig. 4.3 nut ({len(V):,} vertices, genus 1): 7 points; rel. RMSE GVF "
                  f"{err(g.values, truth, idx):.3f}, harmonic {err(h.values, truth, idx):.3f}, gvf-harmonic "
@@ -158,7 +158,8 @@ def paper_figures(out, field, label, *, into=None):
     parts = [example_mesh("sphere.ply", 2), example_mesh("nut.ply", 1), example_mesh("sphere.ply", 1)]
     Vs, Fs, base = [], [], 0
     for j, (Vj, Fj) in enumerate(parts):
-        Vs.append(Vj * (1.0 if j != 2 else 0.6) + np.array([1.3 * j, 0.0, 0.0]))
+        # side by side, the small sphere below between them: a compact group that fills its panel
+        Vs.append(Vj * (1.0 if j != 2 else 0.6) + np.array([[0.0, 0.0, 0.0], [1.35, 0.0, 0.0], [0.7, 0.0, -1.05]][j]))
         Fs.append(Fj + base)
         base += len(Vj)
     V, F = np.concatenate(Vs), np.concatenate(Fs)
@@ -168,9 +169,9 @@ def paper_figures(out, field, label, *, into=None):
     on_paths = np.where(r.on_curve, r.values, np.nan)
     path = out / "fig4_4_three_components.png"
     render_panels([dict(V=V, F=F, values=on_paths, samples=idx, curves=r.curves, colour_curves=True,
-                        title="(a) GVF on the paths"),
+                        title="(a) GVF on the paths (grey: no value yet)"),
                    dict(V=V, F=F, values=r.values, samples=idx, title="(b) harmonic fitting")],
-                  path, size=(1400, 430), view=(0.2, -1.0, 0.6))
+                  path, size=(1400, 560), view=(0.3, -1.0, 0.45))
     files.append(path)
     lines.append(f"    Fig. 4.4 three components ({len(V):,} vertices): 12 samples, {len(r.curves)} paths, "
                  f"rel. RMSE {err(r.values, truth, idx):.3f} -> {path.name}")

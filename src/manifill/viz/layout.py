@@ -63,12 +63,14 @@ def position_text(at, extent):
     return "0" if text in ("-0", "") else text
 
 
-def fill_frame(renderers, points, *, width=0.8, height=0.58, rounds=2):
-    """Zoom each renderer's camera so that the ``points`` it shows span ``width`` x ``height`` of it.
+def fill_frame(renderers, points, *, width=0.8, height=0.58, rounds=2, centre=(0.0, 0.12)):
+    """Zoom each renderer's camera so that the ``points`` it shows span ``width`` x ``height`` of it, centred.
 
-    The camera's own fit is to the objects' bounding sphere, which leaves a wide or flat group small;
-    here the points' projection is measured and the camera zoomed to fit the box left between the
-    title and the colour bar. Renderers sharing one camera (linked views) are fitted together.
+    The camera's own fit is to the objects' bounding sphere, which leaves a wide or flat group small, and
+    centres the sphere, not what a perspective view shows of it; here the points' projection is measured, the
+    camera zoomed to fit the box left between the title and the colour bar, and moved so that the projection's
+    centre is the box's (``centre``, in normalised device coordinates: a little above the middle, clear of the
+    bar and its name). Renderers sharing one camera (linked views) are fitted together.
 
     Parameters
     ----------
@@ -77,6 +79,10 @@ def fill_frame(renderers, points, *, width=0.8, height=0.58, rounds=2):
         What each renderer shows (a subsample is enough).
     width, height : float, optional
         The fractions of the renderer the points may span.
+    rounds : int, optional
+        Measurements (a perspective camera's zoom is not quite linear).
+    centre : (float, float), optional
+        Where the projection's centre goes, in normalised device coordinates (-1 to 1).
     """
     by_camera = {}
     for ren, P in zip(renderers, points):
@@ -84,20 +90,52 @@ def fill_frame(renderers, points, *, width=0.8, height=0.58, rounds=2):
             by_camera.setdefault(id(ren.GetActiveCamera()), []).append((ren, np.asarray(P, dtype=np.float64)))
     for group in by_camera.values():
         camera = group[0][0].GetActiveCamera()
-        for _ in range(rounds):  # a perspective camera's zoom is not quite linear: measure twice
-            span_x = span_y = 0.0
-            for ren, P in group:
-                w, h = ren.GetSize()
-                aspect = w / h if h else 1.0
-                M = np.array([[camera.GetCompositeProjectionTransformMatrix(aspect, -1, 1).GetElement(i, j)
-                               for j in range(4)] for i in range(4)])
-                X = np.column_stack([P, np.ones(len(P))]) @ M.T
-                front = X[:, 3] > 0  # in front of the camera
-                if not front.any():
-                    continue
-                ndc = X[front, :2] / X[front, 3:4]
-                span_x = max(span_x, float(np.ptp(ndc[:, 0])) / 2.0)
-                span_y = max(span_y, float(np.ptp(ndc[:, 1])) / 2.0)
+        for _ in range(rounds):
+            box = _projected_box(camera, group)
+            if box is None:
+                break
+            (x0, x1), (y0, y1) = box
+            span_x, span_y = (x1 - x0) / 2.0, (y1 - y0) / 2.0
             if span_x <= 0 or span_y <= 0:
                 break
             camera.Zoom(min(width / span_x, height / span_y))
+            box = _projected_box(camera, group)
+            if box is not None:
+                _pan(camera, group[0][0], (sum(box[0]) / 2.0 - centre[0], sum(box[1]) / 2.0 - centre[1]))
+
+
+def _projected_box(camera, group):
+    """``((x0, x1), (y0, y1))``: the points' extent in normalised device coordinates over the group's renderers."""
+    xs, ys = [], []
+    for ren, P in group:
+        w, h = ren.GetSize()
+        aspect = w / h if h else 1.0
+        M = np.array([[camera.GetCompositeProjectionTransformMatrix(aspect, -1, 1).GetElement(i, j)
+                       for j in range(4)] for i in range(4)])
+        X = np.column_stack([P, np.ones(len(P))]) @ M.T
+        front = X[:, 3] > 0  # in front of the camera
+        if front.any():
+            ndc = X[front, :2] / X[front, 3:4]
+            xs += [float(ndc[:, 0].min()), float(ndc[:, 0].max())]
+            ys += [float(ndc[:, 1].min()), float(ndc[:, 1].max())]
+    return ((min(xs), max(xs)), (min(ys), max(ys))) if xs else None
+
+
+def _pan(camera, ren, shift):
+    """Move the camera (position and focal point together) so that the view shifts by ``shift`` in normalised
+    device coordinates (what was at ``shift`` is then at the centre)."""
+    w, h = ren.GetSize()
+    aspect = w / h if h else 1.0
+    pos, focal = np.array(camera.GetPosition()), np.array(camera.GetFocalPoint())
+    if camera.GetParallelProjection():
+        half = camera.GetParallelScale()
+    else:
+        half = float(np.linalg.norm(focal - pos)) * np.tan(np.radians(camera.GetViewAngle()) / 2.0)
+    up = np.array(camera.GetViewUp(), dtype=np.float64)
+    forward = (focal - pos) / max(float(np.linalg.norm(focal - pos)), 1e-300)
+    right = np.cross(forward, up)
+    up = np.cross(right, forward)
+    move = shift[0] * half * aspect * right / max(np.linalg.norm(right), 1e-300) + shift[1] * half * up / max(
+        np.linalg.norm(up), 1e-300)
+    camera.SetPosition(*(pos + move))
+    camera.SetFocalPoint(*(focal + move))

@@ -20,15 +20,18 @@ STD_CMAP = "YlGnBu"
 
 
 def nice_range(values):
-    """``((lo, hi), labels)``: the values' range widened to 4-6 round steps (1, 2, 2.5 or 5 times a power of
-    ten; the least widening wins), so that every tick of a colour bar is a round number.
+    """``((lo, hi), labels)``: the values' range widened to 4-7 round steps (1, 2, 2.5 or 5 times a power of
+    ten; the least widening wins), so that every tick of a colour bar is a round number; values within half a
+    percent of the range past a round end are not worth a whole step more (they take the end's colour).
 
     Examples
     --------
     >>> nice_range([-0.937, 1.02])
     ((-1.0, 1.5), 6)
-    >>> nice_range([-0.646, 0.752])
-    ((-1.0, 1.0), 5)
+    >>> nice_range([-0.646, 0.752])  # 0.752 drawn at 0.75's colour
+    ((-0.75, 0.75), 7)
+    >>> nice_range([-1.503, 1.498])  # a field in +-1.5: not padded to +-2
+    ((-1.5, 1.5), 7)
     >>> nice_range([0.0509, 0.0509])
     ((0.0509, 0.0509), 2)
     """
@@ -39,8 +42,10 @@ def nice_range(values):
     lo, hi = float(v.min()), float(v.max())
     if not hi > lo:
         return (lo, hi), 2
+    tol = 0.005 * (hi - lo)  # a value within half a percent past a round end is drawn at the end's colour
+    lo, hi = lo + tol, hi - tol
     best = None
-    for steps in (4, 5, 6):
+    for steps in (4, 5, 6, 7):
         raw = (hi - lo) / steps
         mag = 10.0 ** np.floor(np.log10(raw))
         for m in (1.0, 2.0, 2.5, 5.0, 10.0):
@@ -169,12 +174,16 @@ def _add_surface(pl, pv, panel, clim, cmap):
                                                         if len(c) >= 2])
                 pl.add_mesh(poly, scalars=name, cmap=cmap, clim=clim, line_width=6, render_lines_as_tubes=True,
                             show_scalar_bar=False)
-            else:
-                pl.add_mesh(poly, color="black", line_width=2)
+            else:  # thin and dark grey, half see-through: they mark where the curves run without hiding the field
+                pl.add_mesh(poly, color="#333333", line_width=1.5, opacity=0.6)
     samples = panel.get("samples")
     if samples is not None and len(samples):
         size = max(9.0, 1.6 * _look_of(V, F).get("point_size", 0.0))  # above a point cloud's own points
-        pl.add_points(np.asarray(V)[np.asarray(samples)], color="red", point_size=size, render_points_as_spheres=True)
+        at = np.asarray(V, dtype=np.float64)[np.asarray(samples)]
+        if F is not None:  # lifted off the surface along its normals: whole spheres, also on a silhouette
+            normals = np.asarray(mesh.compute_normals(point_normals=True, cell_normals=False).point_data["Normals"])
+            at = at + 0.006 * float(np.linalg.norm(np.ptp(np.asarray(V), axis=0))) * normals[np.asarray(samples)]
+        pl.add_points(at, color="red", point_size=size, render_points_as_spheres=True)
     if panel.get("title"):
         pl.add_text(panel["title"], font_size=11, position="upper_edge")
 
@@ -295,13 +304,20 @@ def render_slices(values, spacing, origin, path, *, name="value", size=(1200, 45
         at = float(centre["xyz".index(normal)])
         pl.add_text(f"slice at {normal} = {position_text(at, extent)}", font_size=10, position="upper_edge",
                     color="black")
-        pl.view_vector({"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}[normal],
+        pl.view_vector({"x": (1, 0, 0), "y": (0, -1, 0), "z": (0, 0, 1)}[normal],  # x and y increase rightwards
                        viewup=(0, 1, 0) if normal == "z" else (0, 0, 1))
-        pl.add_axes(color="black", line_width=2, viewport=(0.8, 0.7, 1.0, 0.9))  # which way x, y and z point
+        if sl.n_points:  # the two in-plane axes and their ranges, in the mesh's units (x, y across; z, y up)
+            across, up = {"x": ("y", "z"), "y": ("x", "z"), "z": ("x", "y")}[normal]
+            lo, hi = np.reshape(sl.bounds, (3, 2)).T
+            ends = {c: f"{c} {position_text(lo['xyz'.index(c)], extent)} to {position_text(hi['xyz'.index(c)], extent)}"
+                    for c in (across, up)}
+            note = pl.add_text(f"across: {ends[across]}\nup: {ends[up]}", position=(0.5, 0.83), viewport=True,
+                               font_size=10, color="dimgray")
+            note.GetTextProperty().SetJustificationToCentered()
         pl.set_background("white")
         shown_points.append(np.asarray(sl.points)[:: max(1, sl.n_points // 5000)] if sl.n_points else None)
     pl.render()
-    fill_frame(pl.renderers, shown_points)
+    fill_frame(pl.renderers, shown_points, height=0.5, centre=(0.0, 0.06))  # room for the ranges above
     try:
         pl.screenshot(str(path))
     except (OSError, ValueError) as exc:

@@ -20,7 +20,7 @@ STD_CMAP = "YlGnBu"
 
 
 def nice_range(values):
-    """``((lo, hi), labels)``: the values' range widened to 4-7 round steps (1, 2, 2.5 or 5 times a power of
+    """``((lo, hi), labels)``: the values' range widened to 4-6 round steps (1, 2, 2.5 or 5 times a power of
     ten; the least widening wins), so that every tick of a colour bar is a round number; values within half a
     percent of the range past a round end are not worth a whole step more (they take the end's colour).
 
@@ -45,7 +45,7 @@ def nice_range(values):
     tol = 0.005 * (hi - lo)  # a value within half a percent past a round end is drawn at the end's colour
     lo, hi = lo + tol, hi - tol
     best = None
-    for steps in (4, 5, 6, 7):
+    for steps in (4, 5, 6):
         raw = (hi - lo) / steps
         mag = 10.0 ** np.floor(np.log10(raw))
         for m in (1.0, 2.0, 2.5, 5.0, 10.0):
@@ -156,6 +156,10 @@ def _add_surface(pl, pv, panel, clim, cmap):
     else:
         pl.add_mesh(mesh, color="lightgrey", **_look_of(V, F))
     curves = panel.get("curves")
+    lift = None
+    if F is not None and (curves or panel.get("samples") is not None):  # off the surface along its normals
+        normals = np.asarray(mesh.compute_normals(point_normals=True, cell_normals=False).point_data["Normals"])
+        lift = float(np.linalg.norm(np.ptp(np.asarray(V), axis=0))) * normals
     if curves:
         pts, lines = [], []
         start = 0
@@ -163,7 +167,7 @@ def _add_surface(pl, pv, panel, clim, cmap):
             c = np.asarray(c)
             if len(c) < 2:
                 continue
-            pts.append(V[c])
+            pts.append(np.asarray(V, dtype=np.float64)[c] + (0.0 if lift is None else 0.002 * lift[c]))
             lines.append(np.concatenate([[len(c)], start + np.arange(len(c))]))
             start += len(c)
         if pts:
@@ -174,15 +178,16 @@ def _add_surface(pl, pv, panel, clim, cmap):
                                                         if len(c) >= 2])
                 pl.add_mesh(poly, scalars=name, cmap=cmap, clim=clim, line_width=6, render_lines_as_tubes=True,
                             show_scalar_bar=False)
-            else:  # thin and dark grey, half see-through: they mark where the curves run without hiding the field
+            elif values is None:  # the curves are what the panel shows: black and clear
+                pl.add_mesh(poly, color="black", line_width=2.5)
+            else:  # over a field: thin, dark grey, half see-through, marking where they run without hiding it
                 pl.add_mesh(poly, color="#333333", line_width=1.5, opacity=0.6)
     samples = panel.get("samples")
     if samples is not None and len(samples):
         size = max(9.0, 1.6 * _look_of(V, F).get("point_size", 0.0))  # above a point cloud's own points
         at = np.asarray(V, dtype=np.float64)[np.asarray(samples)]
-        if F is not None:  # lifted off the surface along its normals: whole spheres, also on a silhouette
-            normals = np.asarray(mesh.compute_normals(point_normals=True, cell_normals=False).point_data["Normals"])
-            at = at + 0.006 * float(np.linalg.norm(np.ptp(np.asarray(V), axis=0))) * normals[np.asarray(samples)]
+        if lift is not None:  # lifted off the surface: whole spheres, also on a silhouette
+            at = at + 0.006 * lift[np.asarray(samples)]
         pl.add_points(at, color="red", point_size=size, render_points_as_spheres=True)
     if panel.get("title"):
         pl.add_text(panel["title"], font_size=11, position="upper_edge")

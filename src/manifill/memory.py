@@ -15,7 +15,7 @@ import os
 try:
     import resource
 except ImportError:  # not on this platform
-    resource = None
+    resource = None  # type: ignore[assignment]
 
 from .errors import ResourceError
 

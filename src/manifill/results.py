@@ -45,7 +45,7 @@ RESERVED_NAMES = (SAMPLE_MASK, CURVE_MASK, PATCH_LABEL, BOUNDARY_MASK, TRUSTED)
 #: Fields named in a result's repr before "... and N more".
 REPR_FIELDS = 6
 
-_SAVER = []  # the writer of :meth:`Result.save`, registered by manifill.io (a layer above)
+_SAVER: list = []  # the writer of :meth:`Result.save`, registered by manifill.io (a layer above)
 
 
 def register_saver(save):

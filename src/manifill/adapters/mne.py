@@ -213,7 +213,7 @@ def _on_scalp(V, F, P, names, max_distance):
 
 #: The scalp maps built lately, by what makes them (a montage's good and bad channels' positions, the surface, the
 #: method and options): recordings with the same cap and the same bads reuse one.
-_MAPS = {}
+_MAPS: dict = {}
 MAPS_KEPT = 8
 
 

@@ -12,7 +12,7 @@ import io
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10: the same parser as the tomli package (the [batch] extra has it)
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 from ..errors import OptionError, ReadError
 

@@ -389,7 +389,7 @@ def atomic_path(path):
 
 
 #: The temporaries of the writes under way (:func:`atomic_path`), for a process that must stop at once.
-ACTIVE = set()
+ACTIVE: set = set()
 
 
 def remove_active_temporaries():

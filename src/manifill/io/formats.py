@@ -115,12 +115,12 @@ class Format:
     static: bool = False
     needs_steps: bool = False
     exact: bool = True
-    container: str = None
-    extra: str = None
-    meshio: str = None
+    container: str | None = None
+    extra: str | None = None
+    meshio: str | None = None
 
 
-_FORMATS = {}
+_FORMATS: dict = {}
 
 
 def register_format(fmt):

@@ -15,6 +15,7 @@ per-vertex values are read and written by :mod:`manifill.io.samples`.
 
 import contextlib
 import contextvars
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -55,8 +56,8 @@ class MeshFile:
     V: np.ndarray
     F: np.ndarray
     point_data: dict = field(default_factory=dict)
-    format: Format = None
-    path: Path = None
+    format: Format | None = None
+    path: Path | None = None
 
     def __iter__(self):
         """``V, F = mesh_file``: the arrays, as :func:`read_mesh` gave them before it gave a :class:`MeshFile`."""
@@ -123,7 +124,7 @@ def reading_once():
         _READ.reset(token)
 
 
-def read_mesh_file(path, *, points=False):
+def read_mesh_file(path: str | os.PathLike, *, points: bool = False) -> MeshFile:
     """Read a triangle surface and the per-vertex fields stored with it (parsed once per :func:`reading_once`).
 
     Formats: VTU, VTP, legacy VTK (POLYDATA or UNSTRUCTURED_GRID), PLY, OFF, OBJ,
@@ -214,7 +215,7 @@ def check_cells(path, V, C, what):
                         f"(0..{len(V) - 1}); the file is damaged, check it")
 
 
-def read_mesh(path):
+def read_mesh(path: str | os.PathLike) -> MeshFile:
     """Read a triangle mesh (see :func:`read_mesh_file` for the formats): a :class:`MeshFile`, which unpacks as
     ``V, F`` (``V, F = read_mesh(path)``).
 
@@ -277,7 +278,7 @@ def _field_array(name, arr, n):
     return arr.astype(np.float64)
 
 
-def write_mesh(path, V, F, point_data=None):
+def write_mesh(path: str | os.PathLike, V, F, point_data: dict | None = None) -> dict[str, str]:
     """Write a triangle mesh with named per-vertex fields, atomically.
 
     Parameters

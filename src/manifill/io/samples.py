@@ -119,7 +119,7 @@ class SampleTable:
     kind: str
     table: np.ndarray
     names: list
-    lines: np.ndarray = None
+    lines: np.ndarray | None = None
 
 
 def read_sample_table(path, n):

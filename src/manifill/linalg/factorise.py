@@ -72,7 +72,7 @@ class PardisoFactor:
         return np.asarray(X, dtype=np.float64).reshape(np.shape(B))
 
 
-_MKL_RT = []  # MKL's library, as the installed ``mkl`` package lists it (None: pypardiso searches for it)
+_MKL_RT: list = []  # MKL's library, as the installed ``mkl`` package lists it (None: pypardiso searches for it)
 
 
 def _mkl_rt():

@@ -121,7 +121,7 @@ class MaternShape:
     root_G: object
     alpha: int
     d: int
-    c_mid: np.ndarray = None
+    c_mid: np.ndarray | None = None
 
     def __post_init__(self):
         if self.alpha not in ALPHAS:

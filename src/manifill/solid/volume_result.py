@@ -69,18 +69,18 @@ class VolumeReconstruction(Result):
     values: np.ndarray
     form: str
     surface: object  # a manifill.surface.reconstruction.Reconstruction, or None
-    mask: np.ndarray = None
-    spacing: np.ndarray = None
-    origin: np.ndarray = None
-    fixed: np.ndarray = None
-    TV: np.ndarray = None
-    TT: np.ndarray = None
-    surface_voxels: np.ndarray = None
+    mask: np.ndarray | None = None
+    spacing: np.ndarray | None = None
+    origin: np.ndarray | None = None
+    fixed: np.ndarray | None = None
+    TV: np.ndarray | None = None
+    TT: np.ndarray | None = None
+    surface_voxels: np.ndarray | None = None
     report: dict = field(default_factory=dict)
-    samples: np.ndarray = None
-    std: np.ndarray = None
-    trusted: np.ndarray = None
-    names: list = None
+    samples: np.ndarray | None = None
+    std: np.ndarray | None = None
+    trusted: np.ndarray | None = None
+    names: list | None = None
     #: ``(count, seed) ->`` posterior draws shaped like ``values`` plus a draws axis (the solid's gp), or None
     drawer: object = field(default=None, repr=False, compare=False)
 

@@ -25,6 +25,8 @@ table. For other folds or candidates, call :func:`cross_validate` and pass
 ``**cv.best_options`` to :func:`manifill.reconstruct`.
 """
 
+from typing import Any
+
 import numpy as np
 
 from ..errors import OptionError, SampleError
@@ -44,7 +46,7 @@ __all__ = ["CANDIDATES", "AUTO_CANDIDATES", "AUTO_FOLDS", "MIN_SAMPLES", "CrossV
            "fold_labels", "candidates_of"]
 
 #: The default candidates: ``(method, options)``.
-CANDIDATES = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"}), ("harmonic", {}),
+CANDIDATES: tuple = (("gvf-harmonic", {}), ("gvf-harmonic", {"curve_values": "monotone"}), ("harmonic", {}),
               ("biharmonic", {}), ("biharmonic", {"bounds": "samples"}), ("triharmonic", {}), ("rbf", {}))
 #: The options of :func:`cross_validate` besides its own, passed to every fit.
 FIT_OPTIONS = ("partition", "weights", "levels", "curve_values", "solver", "iteration", "init", "tol", "maxiter",
@@ -88,7 +90,8 @@ def candidates_of(methods, digital=False):
     return out
 
 
-def cross_validate(V, F, idx, vals, *, methods=None, folds=10, seed=0, **options):
+def cross_validate(V, F, idx, vals, *, methods: list | None = None, folds: int = 10, seed: int = 0,
+                   **options: Any) -> CrossValidation:
     """Each method's K-fold (or leave-one-out) error on the samples themselves.
 
     Parameters

@@ -64,7 +64,7 @@ class CrossValidation:
     loo: bool
     seed: int
     samples: int
-    labels: np.ndarray = field(default=None, repr=False)
+    labels: np.ndarray | None = field(default=None, repr=False)
     #: Label -> what the method's win suggests (its ``cv_hint``: for rbf, a field that lives in space).
     hints: dict = field(default_factory=dict, repr=False)
     #: Label -> the farthest any fold's fit left its training samples' range, as a fraction of that range.

@@ -69,7 +69,7 @@ class SurfacePoints:
     distance: np.ndarray
     nearest_vertex: np.ndarray
     vertex: np.ndarray
-    vertex_distance: np.ndarray = None
+    vertex_distance: np.ndarray | None = None
 
     @property
     def inside(self):

@@ -168,7 +168,7 @@ OPTION_GROUP = {f.name: g for g, cls in GROUPS.items() for f in fields(cls)}
 #: Every keyword :meth:`Options.build` takes (besides ``method``).
 OPTION_NAMES = tuple(OPTION_GROUP)
 #: Every flat keyword's forms (the groups' tables in one view).
-CONSTRAINTS = {name: forms for cls in GROUPS.values() for name, forms in cls.CONSTRAINTS.items()}
+CONSTRAINTS = {name: forms for cls in GROUPS.values() for name, forms in cls.CONSTRAINTS.items()}  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True, kw_only=True)

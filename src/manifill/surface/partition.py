@@ -72,8 +72,8 @@ class Partition:
     labels: np.ndarray
     boundaries: list
     report: dict = field(default_factory=dict)
-    _edges: np.ndarray = field(default=None, init=False, repr=False)
-    _flat: tuple = field(default=None, init=False, repr=False)  # (all curves concatenated, their lengths)
+    _edges: np.ndarray | None = field(default=None, init=False, repr=False)
+    _flat: tuple | None = field(default=None, init=False, repr=False)  # (all curves concatenated, their lengths)
 
     def curve_edges(self):
         """Unique edges ``(i, j)``, ``i < j``, of the curve network, as an (e, 2) array."""

@@ -21,8 +21,11 @@ on a built Surface. The result is a :class:`Reconstruction`, of the result famil
 """
 
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..deprecation import renamed
 from ..progress import tick
@@ -31,6 +34,7 @@ from .methods.base import CHECK_FIELDS
 from .methods.default import DEFAULT
 from .methods.registry import METHODS as REGISTRY
 from .methods.registry import names
+from .options import Options
 from .reconstruction import Reconstruction
 from .reconstructor import Reconstructor
 
@@ -44,7 +48,8 @@ METHOD_NAMES = names(presets=False)
 STEPS = {name: m.step_names for name, m in REGISTRY.items()}
 
 
-def reconstruct(V, F, idx, vals, *, options=None, progress=None, **keywords):
+def reconstruct(V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, vals: ArrayLike, *, options: Options | None = None,
+                progress: Callable[[str], object] | None = None, **keywords: Any) -> Reconstruction:
     """Reconstruct a field on a surface from a few samples (the paper's Steps 1-6).
 
     Parameters

@@ -70,13 +70,13 @@ class Reconstruction(Result):
     on_curve: np.ndarray
     levels: list
     report: dict = field(default_factory=dict)
-    V: np.ndarray = None
-    F: np.ndarray = None
-    idx: np.ndarray = None
+    V: np.ndarray | None = None
+    F: np.ndarray | None = None
+    idx: np.ndarray | None = None
     points: object = None
-    std: np.ndarray = None
-    trusted: np.ndarray = None
-    names: list = None
+    std: np.ndarray | None = None
+    trusted: np.ndarray | None = None
+    names: list | None = None
     source: object = None
     #: the method that made it (its :meth:`draws` for :meth:`sample`); not a field of the result's files
     made_by: object = field(default=None, repr=False, compare=False)

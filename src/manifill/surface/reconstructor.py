@@ -19,8 +19,10 @@ fitted hyperparameters; they still reuse everything value-independent.
 
 import math
 import time
+from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator
 
@@ -34,6 +36,7 @@ from .energy_fill import as_bounds
 from .engine import reconstruct_surface
 from .methods.registry import configure, method_of
 from .prepared import Prepared
+from .reconstruction import Reconstruction
 from .surface import Surface
 
 __all__ = ["Reconstructor", "MATRIX_FORMS"]
@@ -183,7 +186,7 @@ class Reconstructor:
             r.std = None if r.std is None else r.std[:, 0]
         return self._domain.expand(r)
 
-    def apply(self, vals, *, progress=None):
+    def apply(self, vals: ArrayLike, *, progress: Callable[[str], object] | None = None) -> Reconstruction:
         """The reconstruction of ``vals``: what :func:`manifill.reconstruct` gives for them.
 
         Parameters

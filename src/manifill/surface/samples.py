@@ -43,10 +43,10 @@ class Samples:
     idx: np.ndarray
     vals: np.ndarray
     names: list = field(default_factory=list)
-    snap_distance: np.ndarray = None
+    snap_distance: np.ndarray | None = None
     merged: int = 0
-    points: np.ndarray = None
-    point_vals: np.ndarray = None
+    points: np.ndarray | None = None
+    point_vals: np.ndarray | None = None
 
     @classmethod
     def from_indices(cls, idx, vals, n, *, names=None, duplicates="error"):

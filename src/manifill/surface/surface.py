@@ -11,6 +11,7 @@ Delaunay fan (:class:`manifill.mesh.pointcloud.Cloud`), so that every method run
 """
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -92,13 +93,13 @@ class Surface:
     G_hops: object
     G: object
     laplacian: object
-    F: np.ndarray = None
-    normals: np.ndarray = None
+    F: np.ndarray | None = None
+    normals: np.ndarray | None = None
     index: object = None
     mass: object = None
-    cloud: object = None
-    cut: object = None
-    barrier_faces: object = None
+    cloud: Any = None
+    cut: Any = None
+    barrier_faces: Any = None
 
     def __post_init__(self):
         if not isinstance(self.laplacian, _CachedLaplacian):

@@ -23,7 +23,7 @@ __all__ = ["AUTO", "AUTO_CANDIDATES", "AUTO_FOLDS", "Auto"]
 
 #: The candidates of ``method="auto"``: ``(method or preset, options)``, the default first (the one kept unless
 #: the cross-validation says otherwise); the exact bounded minimisers are left out (an active set per fold).
-AUTO_CANDIDATES = (("default", {}), ("triharmonic", {"bounds": "samples", "bounds_mode": "project"}),
+AUTO_CANDIDATES: tuple = (("default", {}), ("triharmonic", {"bounds": "samples", "bounds_mode": "project"}),
                    ("hessian", {}), ("rbf", {}))
 #: Folds of ``method="auto"``.
 AUTO_FOLDS = 5

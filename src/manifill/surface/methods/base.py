@@ -52,7 +52,7 @@ class Method:
     method that takes none of the optional constraints.
     """
 
-    name = None
+    name: str | None = None
     #: One line for the docs and ``--help``.
     summary = ""
     can_bound = False
@@ -73,10 +73,10 @@ class Method:
     #: What it suggests when it wins a cross-validation (appended to the recommendation), or "".
     cv_hint = ""
     #: The steps after ``graph``, by the names passed to ``progress``.
-    step_names = ()
+    step_names: tuple[str, ...] = ()
     #: The models of ``barriers=`` it takes (``gp={'barrier': ...}``): ``'cut'``, the mesh cut along them (any
     #: method), or ``'bakka'``, the gp's own (the mesh whole, the faces along them of a short range).
-    barrier_models = ("cut",)
+    barrier_models: tuple[str, ...] = ("cut",)
     #: Step 4's curve values when none are given (a preset may give others: the default's ``'monotone'``).
     default_curve_values = "hermite"
 

@@ -56,13 +56,10 @@ def _long(data, var, lon, lat, station, time):
     row = rank[which.ravel()]
     steps, col = np.unique(t, return_inverse=True)
     values = np.full((len(uniq), len(steps)), np.nan)
-    seen = np.zeros(values.shape, dtype=bool)
-    dup = seen.copy()
-    for r, c in zip(row, col.ravel()):
-        dup[r, c] |= seen[r, c]
-        seen[r, c] = True
-    if dup.any():
-        r, c = map(int, np.argwhere(dup)[0])
+    cell = row * len(steps) + col.ravel()
+    twice = np.flatnonzero(np.bincount(cell, minlength=values.size) > 1)
+    if twice.size:
+        r, c = divmod(int(twice[0]), len(steps))
         raise SampleError(f"station at lon {uniq[order[r], 0]:g}, lat {uniq[order[r], 1]:g} has two rows at "
                           f"{time} {steps[c]}; keep one row per station and time")
     values[row, col.ravel()] = columns[cols[0]]

@@ -59,6 +59,21 @@ def suffix(path, allowed, what):
     return ext
 
 
+def is_number(text):
+    """Whether ``text`` reads as a float (a CSV cell, a header's name).
+
+    Examples
+    --------
+    >>> is_number(" 1e-3"), is_number("x")
+    (True, False)
+    """
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def check_input_file(path):
     """Raise :class:`ReadError` unless ``path`` is an existing regular file."""
     path = Path(path)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ReadError
+from .files import is_number
 from .formats import Format, FormatView, find_format, register_format, suffix_list
 from .samples import load_npy
 
@@ -41,17 +42,9 @@ def _numbers(path, lineno, cells, first):
     try:
         return [float(c) for c in cells]
     except ValueError:
-        bad = next(c for c in cells if not _is_number(c))
+        bad = next(c for c in cells if not is_number(c))
         raise ReadError(f"{Path(path).name}: line {lineno}: {bad!r} is not a number; the file holds one point per "
                         f"line ({first})") from None
-
-
-def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _checked(path, P):
@@ -120,7 +113,7 @@ def read_csv_points(path):
     if not rows:
         raise ReadError(f"{name}: no points; the file holds a header 'x,y,z' and one point per line")
     header = [c.strip().lower() for c in rows[0][1]]
-    if all(_is_number(c) for c in header):
+    if all(is_number(c) for c in header):
         cols, names, body = [0, 1, 2], [], rows
         width = len(header)
     else:

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import ReadError, SampleError, WriteError
 from ..surface.samples import field_names
 from ..validate.samples import MAX_VALUE
-from .files import atomic_path, reading
+from .files import atomic_path, is_number, reading
 from .formats import Format, FormatView, lookup, register_format
 from .gifti_write import write_gifti_data
 from .neuro import MORPH_SUFFIXES, read_gifti_data, read_label, read_mgh_data, read_morph_data
@@ -41,7 +41,7 @@ def _split_header(header, path):
 def _header_problem(header, cols):
     """What is wrong with a sample file's header, naming the column and the expected name nearest to it."""
     shown = ",".join(h.strip() for h in header)
-    if len(cols) < 2 or (all(_is_number(c) for c in cols) and cols):
+    if len(cols) < 2 or (all(is_number(c) for c in cols) and cols):
         return f"the first line {shown!r} is not a header; add one such as vertex,value or x,y,z,value"
     if cols[0] in ("x", "y", "z") or (len(cols) >= 3 and difflib.get_close_matches(cols[0], ["x"], cutoff=0.5)):
         want = ["x", "y", "z"]
@@ -54,14 +54,6 @@ def _header_problem(header, cols):
     hint = f" (did you mean {close[0]!r}?)" if close else ""
     return (f"header {shown!r}: the first column {header[0].strip()!r} is neither 'vertex'{hint} nor 'x'; a header is "
             f"vertex,value[,...] (vertex indices) or x,y,z,value[,...] (positions): rename it")
-
-
-def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _read_label(path, n):

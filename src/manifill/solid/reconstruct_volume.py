@@ -38,7 +38,6 @@ from ..errors import OptionError, SampleError
 from ..memory import check_fits
 from ..mesh.laplacian import WEIGHTS as SURFACE_WEIGHTS
 from ..mesh.objects import mesh_arrays
-from ..mesh.tetmesh import TET_WEIGHTS
 from ..progress import tick
 from ..surface.methods.registry import method_of
 from ..surface.reconstruct import reconstruct, reconstruct_surface
@@ -104,7 +103,7 @@ def _check_fill(form, fill_solver, fill_weights="cotan"):
     check_option("fill_solver", fill_solver, solvers)
     if form == "voxels":
         _check_form_options("voxels", fill_weights=(fill_weights, "cotan"))
-    check_option("fill_weights", fill_weights, TET_WEIGHTS)
+    check_volume_options(fill_weights=fill_weights)
 
 
 def _refuse_own(options):
@@ -185,8 +184,7 @@ def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connec
     >>> r.values.shape, bool(np.isnan(r.values[0, 0, 0]))
     ((26, 26, 26), True)
     """
-    check_volume_options(form=form, connectivity=connectivity, max_volume=max_volume,
-                         allow_open=allow_open, fill_weights=fill_weights)
+    check_volume_options(form=form, connectivity=connectivity, max_volume=max_volume, allow_open=allow_open)
     _check_fill(form, fill_solver, fill_weights)
     if form == "tets":
         _check_form_options("tets", resolution=(resolution, 128), connectivity=(connectivity, 6),
@@ -298,7 +296,6 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_solver="auto", fill_weights
     >>> r.values.shape == (len(TV),), int(r.point_data()["sample_mask"].sum())
     (True, 41)
     """
-    check_volume_options(fill_weights=fill_weights)
     _check_fill("tets", fill_solver, fill_weights)
     gpo = split_gp_options(options.get("method"), options)
     if _solid_gp(options):  # the gp over the tets, samples anywhere

@@ -1,0 +1,209 @@
+"""The tangent vector fill: the smoothest field of the connection's energy that meets the arrows.
+
+With ``L`` the connection Laplacian (:mod:`manifill.vectors.connection`) and ``M`` the lumped mass, the energy is
+the vector Dirichlet energy ``z^H L z`` (``method='harmonic'``) or the vector biharmonic energy ``z^H L M^-1 L z``
+(``method='biharmonic'``, the default: smooth across the samples). Samples at vertices fix the vertex's two
+coordinates; samples inside faces are linear rows (the three corners carried into the face, weighted by the
+barycentric coordinates). The real form of the problem is one of :class:`~manifill.linalg.quadratic.QuadraticSolver`
+(exact samples) or of :func:`~manifill.linalg.smoothing.smooth` (``smoothing=``, noisy arrows): prepared once,
+solved for any number of fields.
+
+Line and cross fields (``symmetry=2`` or ``4``: directions without a sign) are filled in the power
+representation: a sample ``u`` becomes ``|u| exp(1j n arg u)``, which ``u`` and ``-u`` (or its quarter turns) share;
+the result's direction is the ``n``-th root's, one of the ``n`` equal ones.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError, SampleError
+from ..linalg.quadratic import QuadraticSolver
+from ..linalg.smoothing import smooth
+from ..mesh.laplacian import mass_matrix
+from ..surface.locate import locate_points
+from ..validate import as_indices, as_mesh
+from .connection import connection, real_form
+
+__all__ = ["ORDERS", "SYMMETRIES", "NORMAL", "VectorFill", "tangent_parts"]
+
+#: The energies by name: the power of the connection Laplacian.
+ORDERS = {"harmonic": 1, "biharmonic": 2}
+#: The symmetries: 1 an arrow, 2 a line (no sign), 4 a cross.
+SYMMETRIES = (1, 2, 4)
+#: What a sample's normal part beyond a tenth of its length gets: refused, or dropped.
+NORMAL = ("refuse", "drop")
+NORMAL_LIMIT = 0.1
+
+
+def _interleave(i):
+    i = np.asarray(i, dtype=np.int64)
+    return np.column_stack([2 * i, 2 * i + 1]).ravel()
+
+
+def _real_rows(R):
+    """The real rows ``(2k, 2n)`` of complex rows ``(k, n)`` (unknowns and rows interleaved)."""
+    R = sp.coo_array(R)
+    r, c, a, b = R.row, R.col, R.data.real, R.data.imag
+    rows = np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1])
+    cols = np.concatenate([2 * c, 2 * c + 1, 2 * c, 2 * c + 1])
+    return sp.csr_array((np.concatenate([a, -b, b, a]), (rows, cols)), shape=(2 * R.shape[0], 2 * R.shape[1]))
+
+
+def _to_real(Z):
+    """Complex ``(k,)`` or ``(k, p)`` as real ``(2k,)`` or ``(2k, p)``, interleaved."""
+    Z = np.asarray(Z)
+    out = np.empty((2 * Z.shape[0],) + Z.shape[1:])
+    out[0::2], out[1::2] = Z.real, Z.imag
+    return out
+
+
+def _to_complex(X):
+    return X[0::2] + 1j * X[1::2]
+
+
+def tangent_parts(vectors, normals, normal="refuse", what="sample"):
+    """The vectors ``(k, 3[, p])`` less their parts along the unit ``normals`` ``(k, 3)``, checked.
+
+    Raises
+    ------
+    SampleError
+        With ``normal='refuse'``, a vector whose normal part is more than a tenth of its length (naming the first).
+    """
+    X = np.asarray(vectors, dtype=np.float64)
+    Nb = normals if X.ndim == 2 else normals[:, :, None]
+    along = np.sum(X * Nb, axis=1, keepdims=True)
+    length = np.linalg.norm(X, axis=1)
+    if normal == "refuse":
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where(length > 0, np.abs(along[:, 0]) / length, 0.0)
+        bad = np.argwhere(frac > NORMAL_LIMIT)
+        if len(bad):
+            k = tuple(bad[0])
+            raise SampleError(f"{what} {k[0]}'s vector is {frac[k]:.0%} normal to the surface ({len(bad)} such, "
+                              f"more than {NORMAL_LIMIT:.0%} of their length): pass tangent vectors, or drop the "
+                              f"normal parts (normal='drop'); check the vectors' order and frame")
+    return X - along * Nb
+
+
+class VectorFill:
+    """The vector fill of one mesh and one set of sample places, prepared once; :meth:`solve` for any arrows.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles.
+    idx : (k,) array_like of int, or (k, 3) array_like of float
+        Sample vertices, or positions (each at its closest surface point: a vertex or a face's inside).
+    method : {'biharmonic', 'harmonic'}, optional
+        The energy (:data:`ORDERS`).
+    symmetry : {1, 2, 4}, optional
+        1 for arrows, 2 for lines (no sign), 4 for crosses.
+    smoothing : float >= 0 or 'auto', optional
+        None (the default) meets the samples exactly; a number weighs the energy against the squared misfit (as
+        the scalar methods' ``smoothing``), ``'auto'`` chooses it by generalised cross-validation.
+    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
+        The backend of the solve (:class:`~manifill.linalg.quadratic.QuadraticSolver`); samples inside faces need
+        ``'direct'`` or ``'auto'``.
+    max_distance : float, optional
+        Positions farther than this from the surface are refused (the scalar methods' ``max_distance``).
+    """
+
+    def __init__(self, V, F, idx, *, method="biharmonic", symmetry=1, smoothing=None, solver="auto",
+                 max_distance=None):
+        if method not in ORDERS:
+            raise OptionError(f"method={method!r} is not a vector method; pass one of {', '.join(ORDERS)}")
+        if symmetry not in SYMMETRIES:
+            raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
+        V, F = as_mesh(V, F, allow_unreferenced=True)
+        self.V, self.F, self.method, self.symmetry, self.smoothing = V, F, method, symmetry, smoothing
+        self.connection = conn = connection(V, F)
+        n = conn.n
+        idx_arr = np.asarray(idx)
+        if idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating):
+            where = locate_points(V, F, idx_arr, max_distance=max_distance)
+            at_vertex = where.vertex >= 0
+            self.vertices = where.vertex[at_vertex]
+            self.face_samples = np.where(~at_vertex)[0]
+            self.faces, self.bary = where.faces[~at_vertex], where.bary[~at_vertex]
+            self.vertex_samples = np.where(at_vertex)[0]
+            self.points = where
+        else:
+            self.vertices = as_indices(idx_arr, n, what="idx")
+            self.vertex_samples = np.arange(len(self.vertices))
+            self.face_samples = np.zeros(0, dtype=np.int64)
+            self.faces, self.bary = np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+            self.points = None
+        if len(np.unique(self.vertices)) < len(self.vertices):
+            raise SampleError("two samples sit at one vertex: merge them (their mean vector) or move one")
+        self.k = len(self.vertex_samples) + len(self.face_samples)
+        A = real_form(conn.laplacian(symmetry))
+        self.mass = mass_matrix(V, F).diagonal()
+        if ORDERS[method] == 2:
+            inv = np.repeat(1.0 / np.maximum(self.mass, np.finfo(float).tiny), 2)
+            A = (A @ sp.diags_array(inv) @ A).tocsr()
+        self.A = A
+        self.rows = _real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
+        if smoothing is None:
+            self.solver = QuadraticSolver(A, _interleave(self.vertices), Aeq=self.rows,
+                                          solver="direct" if solver == "auto" else solver,
+                                          what="the connection's energy")
+        else:
+            unit = sp.csr_array((np.ones(len(self.vertices)), (np.arange(len(self.vertices)), self.vertices)),
+                                shape=(len(self.vertices), n))
+            S = sp.vstack([unit, conn.face_rows(self.faces, self.bary, symmetry)]) if len(self.faces) else unit
+            self.S = _real_rows(S)
+            self.solver = None
+        self.solver_name = solver
+
+    def sample_coordinates(self, vectors, normal="refuse"):
+        """The arrows ``(k, 3[, p])`` as complex numbers in their vertex's or face's frame, in the power
+        representation of :attr:`symmetry`: ``(k[, p])``."""
+        X = np.asarray(vectors, dtype=np.float64)
+        if X.ndim not in (2, 3) or X.shape[0] != self.k or X.shape[1] != 3:
+            raise SampleError(f"the vectors have shape {X.shape}; pass one 3-vector per sample, ({self.k}, 3)")
+        if not np.all(np.isfinite(X)):
+            raise SampleError("the vectors have NaN or infinite entries; drop those samples")
+        conn = self.connection
+        W = np.zeros((self.k,) + X.shape[2:], dtype=complex)
+        if len(self.vertex_samples):
+            fr = conn.frames[self.vertices]
+            T = tangent_parts(X[self.vertex_samples], fr[:, 2], normal)
+            W[self.vertex_samples] = conn.to_complex(T, at=self.vertices)
+        if len(self.face_samples):
+            fr = conn.face_frames[self.faces]
+            T = tangent_parts(X[self.face_samples], fr[:, 2], normal)
+            W[self.face_samples] = _coords(T, fr)
+        if self.symmetry > 1:
+            W = np.abs(W) * np.exp(1j * self.symmetry * np.angle(W))
+        return W
+
+    def solve(self, vectors, *, normal="refuse"):
+        """The vertex field ``Z`` (complex, ``(n,)`` or ``(n, p)``) and a report, for arrows ``(k, 3[, p])``."""
+        W = self.sample_coordinates(vectors, normal)
+        report = {"method": self.method, "symmetry": self.symmetry, "samples": self.k,
+                  "inside_faces": int(len(self.face_samples))}
+        if self.solver is not None:
+            vals = _to_real(W[self.vertex_samples])
+            beq = _to_real(W[self.face_samples]) if self.rows is not None else None
+            X = self.solver.solve(vals, beq=beq)
+        else:
+            y = _to_real(np.concatenate([W[self.vertex_samples], W[self.face_samples]]))
+            lam = self.smoothing
+            X, info = smooth(self.A, self.S, y, lam, solver=self.solver_name)
+            report["smoothing"] = {key: info[key] for key in ("lambda", "edf", "rms_residual") if key in info}
+        return _to_complex(X), report
+
+    def representative(self, Z):
+        """One vector per power-representation number: ``|Z| exp(1j arg Z / n)``."""
+        if self.symmetry == 1:
+            return Z
+        return np.abs(Z) * np.exp(1j * np.angle(Z) / self.symmetry)
+
+
+def _coords(T, frames):
+    """Tangent vectors ``(k, 3[, p])`` in the frames ``(k, 3, 3)`` as complex numbers."""
+    if T.ndim == 2:
+        return np.einsum("kc,kc->k", T, frames[:, 0]) + 1j * np.einsum("kc,kc->k", T, frames[:, 1])
+    return np.einsum("kcp,kc->kp", T, frames[:, 0]) + 1j * np.einsum("kcp,kc->kp", T, frames[:, 1])

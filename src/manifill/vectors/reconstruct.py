@@ -1,0 +1,243 @@
+"""Tangent vector fields from arrows at a few places: :class:`VectorReconstructor` (prepared once, applied to
+any number of fields or times) and :func:`reconstruct_vectors` (one applied once).
+
+The fill is :mod:`manifill.vectors.fill`'s (the connection's Dirichlet or biharmonic energy, exact at the samples
+or smoothed), :mod:`manifill.vectors.hodge`'s (a potential's gradient or a stream function's rotated gradient:
+curl-free or divergence-free flows) or :mod:`manifill.vectors.gp`'s (the connection-Laplacian Matérn field: a
+mean and a std). Barriers cut the mesh as they do for scalar fields (:class:`manifill.surface.barriers.Cut`).
+"""
+
+import time
+
+import numpy as np
+
+from ..errors import OptionError, SampleError
+from ..surface.barriers import Cut
+from ..surface.curve_values import vertex_normals
+from ..validate import as_mesh
+from .fill import NORMAL, ORDERS, SYMMETRIES, VectorFill
+from .result import VectorReconstruction
+
+__all__ = ["FITS", "VECTOR_METHODS", "VectorReconstructor", "reconstruct_vectors"]
+
+#: The vector methods: the connection's energies, and its Matérn field.
+VECTOR_METHODS = tuple(ORDERS) + ("gp",)
+#: The constrained fits: None (any tangent field), a gradient, a rotated gradient.
+FITS = (None, "curl-free", "divergence-free")
+
+
+def _check(method, symmetry, fit, bounds, normal, smoothing):
+    if method not in VECTOR_METHODS:
+        raise OptionError(f"method={method!r} is not a vector method; pass one of {', '.join(VECTOR_METHODS)}")
+    if symmetry not in SYMMETRIES:
+        raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
+    if fit not in FITS:
+        raise OptionError(f"fit={fit!r}: pass None, 'curl-free' or 'divergence-free'")
+    if fit is not None and (symmetry != 1 or method == "gp"):
+        raise OptionError(f"fit={fit!r} fits arrows (symmetry=1) with an energy method; drop fit= or pass "
+                          f"method='biharmonic'")
+    if normal not in NORMAL:
+        raise OptionError(f"normal={normal!r}: pass 'refuse' or 'drop'")
+    if not (isinstance(bounds, bool) or (isinstance(bounds, (int, float)) and bounds > 0)):
+        raise OptionError(f"bounds={bounds!r}: pass True (the samples' largest magnitude), False, or a magnitude > 0")
+    if smoothing is not None and method == "gp":
+        raise OptionError("smoothing= is for the energy methods; the gp takes noise= (a variance)")
+
+
+class VectorReconstructor:
+    """Tangent vector fields on one mesh from arrows at fixed places, prepared once.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles.
+    idx : (k,) array_like of int, or (k, 3) array_like of float
+        Sample vertices, or sample positions (each at its closest surface point).
+    method : {'biharmonic', 'harmonic', 'gp'}, optional
+        ``biharmonic`` (the default): the smoothest field of the connection's biharmonic energy through the
+        arrows; ``harmonic``: of its Dirichlet energy (a vector's direction turns along straight paths between
+        samples, with kinks at them); ``gp``: the Matérn field of the connection Laplacian, a mean and a std.
+    symmetry : {1, 2, 4}, optional
+        1: arrows; 2: lines (a sample and its opposite are one: fibres, hatching); 4: crosses.
+    fit : {None, 'curl-free', 'divergence-free'}, optional
+        Fit a potential's gradient (a curl-free flow) or a stream function's rotated gradient (divergence-free:
+        an incompressible flow) to the arrows.
+    bounds : bool or float, optional
+        True (the default): no vertex's magnitude above the samples' largest (larger ones are scaled down to
+        it: the projection of the field onto the bound); a number: that magnitude; False: none.
+    smoothing : float >= 0 or 'auto', optional
+        For noisy arrows: the energy weighed against the squared misfit (``'auto'``: by generalised
+        cross-validation); None (the default) meets the arrows exactly.
+    normal : {'refuse', 'drop'}, optional
+        A sample whose part normal to the surface is more than a tenth of its length is refused (the default: a
+        sign of vectors in another frame or order) or has that part dropped.
+    barriers : list of paths, or (m,) labels, optional
+        Lines no field may cross (as :func:`manifill.reconstruct`'s ``barriers``).
+    solver : {'auto', 'direct', 'amg', 'iterate'}, optional
+        The solve's backend.
+    max_distance : float, optional
+        Positions farther than this from the surface are refused.
+    gp : dict, optional
+        ``method='gp'``: ``range``, ``sigma`` (fitted when not given) and ``noise`` (a variance).
+    """
+
+    def __init__(self, V, F, idx, *, method="biharmonic", symmetry=1, fit=None, bounds=True, smoothing=None,
+                 normal="refuse", barriers=None, solver="auto", max_distance=None, gp=None):
+        t0 = time.perf_counter()
+        if F is None:
+            raise OptionError("vector fields need triangles: pass the mesh's faces F (a point cloud has none; mesh "
+                              "it first)")
+        _check(method, symmetry, fit, bounds, normal, smoothing)
+        V, F = as_mesh(V, F, allow_unreferenced=True)
+        self.V, self.F = V, F
+        self.method, self.symmetry, self.fit, self.bounds, self.normal = method, symmetry, fit, bounds, normal
+        self.cut = Cut(V, F, barriers) if barriers is not None else None
+        Vw, Fw = (self.cut.V, self.cut.F) if self.cut is not None else (V, F)
+        idx_w, self._rows = self._work_samples(idx)
+        kw = {"solver": solver, "max_distance": max_distance}
+        if fit is not None:
+            from .hodge import HodgeFit
+            self.engine = HodgeFit(Vw, Fw, idx_w, kind=fit, method=method, **kw)
+        elif method == "gp":
+            from .gp import VectorGP
+            self.engine = VectorGP(Vw, Fw, idx_w, symmetry=symmetry, **(gp or {}), **kw)
+        else:
+            self.engine = VectorFill(Vw, Fw, idx_w, method=method, symmetry=symmetry, smoothing=smoothing, **kw)
+        self.k = len(np.asarray(idx))
+        self.idx = self._sample_vertices(idx)
+        self.normals = vertex_normals(V, F)
+        self.setup_seconds = time.perf_counter() - t0
+
+    def _work_samples(self, idx):
+        """The samples on the mesh the work is done on (a barrier's vertex held on each side), and the rows of
+        the caller's samples they come from."""
+        arr = np.asarray(idx)
+        if self.cut is None or (arr.ndim == 2 and np.issubdtype(arr.dtype, np.floating)):
+            return arr, None
+        idx2, rows = self.cut.copies(arr.astype(np.int64))
+        return idx2, rows
+
+    def _sample_vertices(self, idx):
+        arr = np.asarray(idx)
+        if arr.ndim == 1:
+            return arr.astype(np.int64)
+        pts = getattr(self.engine, "points", None)
+        return np.full(len(arr), -1, dtype=np.int64) if pts is None else np.where(pts.vertex >= 0, pts.vertex, -1)
+
+    def apply(self, vectors, names=None):
+        """The fields for arrows ``(k, 3)`` (one field) or ``(k, 3, p)`` (``p`` fields, e.g. times).
+
+        Returns
+        -------
+        VectorReconstruction
+        """
+        t0 = time.perf_counter()
+        X = np.asarray(vectors, dtype=np.float64)
+        if X.ndim not in (2, 3) or X.shape[:2] != (self.k, 3):
+            raise SampleError(f"the vectors have shape {X.shape}; pass one 3-vector per sample: ({self.k}, 3), "
+                              f"or ({self.k}, 3, p) for p fields")
+        Xw = X if self._rows is None else X[self._rows]
+        out = self.engine.solve(Xw, normal=self.normal)
+        vertex, face, Z, report = self._unpack(out)
+        report["bounds"] = self._bound(vertex, face, X)
+        sing = self._singularities(Z)
+        std = report.pop("std", None)
+        draws = getattr(self.engine, "draws_of", None)
+        if self.cut is not None:
+            vertex = self.cut.values(vertex)  # the mean of a split vertex's sides, put back in its tangent plane
+            Nb = self.normals if vertex.ndim == 2 else self.normals[:, :, None]
+            vertex = vertex - np.sum(vertex * Nb, axis=1, keepdims=True) * Nb
+            std = None if std is None else self.cut.values(std, "max")
+            report["barriers"] = self.cut.report()
+        report.update({"method": self.method, "symmetry": self.symmetry, "fit": self.fit,
+                       "seconds": {"setup": self.setup_seconds, "solve": time.perf_counter() - t0}})
+        return VectorReconstruction(self.V, self.F, vertex, face, idx=self.idx, symmetry=self.symmetry,
+                                    singularities=sing, std=std, report=report, names=names, draws=draws,
+                                    normals=self.normals)
+
+    def _unpack(self, out):
+        """Every engine's answer as vertex vectors, face vectors, the complex vertex field and a report."""
+        if isinstance(self.engine, VectorFill):
+            Z, report = out
+            conn = self.engine.connection
+            vertex = conn.to_space(self.engine.representative(Z))
+            face = conn.to_space(self.engine.representative(conn.on_faces(Z, self.symmetry)), faces=True)
+            return vertex, face, Z, report
+        return out.vertex, out.faces, out.complex, dict(out.report)
+
+    def _bound(self, vertex, face, X):
+        """Scale magnitudes above the bound down to it (in place); what ``report['bounds']`` says."""
+        if self.bounds is False:
+            return None
+        top = float(np.max(np.linalg.norm(X, axis=1))) if self.bounds is True else float(self.bounds)
+        counts = []
+        for Y in (vertex, face):
+            mag = np.linalg.norm(Y, axis=1, keepdims=True)
+            over = mag > top
+            with np.errstate(invalid="ignore", divide="ignore"):
+                scale = np.where(over, top / mag, 1.0)
+            Y *= scale
+            counts.append(int(over.sum()))
+        return {"magnitude": top, "vertices_scaled": counts[0], "faces_scaled": counts[1]}
+
+    def _singularities(self, Z):
+        conn = getattr(self.engine, "connection", None)
+        if conn is None or Z is None:
+            return []
+        Zs = Z if Z.ndim == 2 else Z[:, None]
+        F = conn.F
+        out = []
+        for j in range(Zs.shape[1]):
+            ind = conn.singularities(Zs[:, j], self.symmetry)
+            f = np.flatnonzero(ind)
+            out.append({"faces": f, "index": ind[f], "positions": conn_centroids(self.engine, F[f])})
+        return out
+
+
+def conn_centroids(engine, faces):
+    """The centroids of the faces ``(j, 3)`` of the mesh the engine works on."""
+    return engine.V[faces].mean(axis=1)
+
+
+def reconstruct_vectors(V, F, idx, vectors, *, names=None, **options):
+    """Reconstruct a tangent vector field on a surface from arrows at a few places.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles.
+    idx : (k,) array_like of int, or (k, 3) array_like of float
+        Sample vertices, or sample positions (each at its closest surface point).
+    vectors : (k, 3) or (k, 3, p) array_like of float
+        The arrows in space (their part tangent to the surface is used; see ``normal``), ``p`` fields on the
+        last axis.
+    names : list of str, optional
+        The fields' names in files.
+    **options
+        As :class:`VectorReconstructor`: ``method``, ``symmetry``, ``fit``, ``bounds``, ``smoothing``,
+        ``normal``, ``barriers``, ``solver``, ``max_distance``, ``gp``.
+
+    Returns
+    -------
+    VectorReconstruction
+        ``values`` (a tangent vector per vertex), ``faces``, ``magnitude``, ``singularities``, ``std`` (gp).
+
+    Examples
+    --------
+    >>> from manifill.mesh.shapes import icosphere
+    >>> V, F = icosphere(3)
+    >>> idx = [0, 100, 300, 500]
+    >>> arrows = np.cross(V[idx], [0.0, 0.0, 1.0])  # a rotation about the z axis, tangent to the sphere
+    >>> r = reconstruct_vectors(V, F, idx, arrows)
+    >>> normals = r.normals  # the mesh's unit vertex normals: the field is tangent to them, exactly
+    >>> float(abs(np.sum(r.values * normals, axis=1)).max()) < 1e-12
+    True
+    >>> tangent = arrows - np.sum(arrows * normals[idx], axis=1)[:, None] * normals[idx]
+    >>> float(abs(r.values[idx] - tangent).max()) < 1e-10  # the arrows' tangent parts, exactly
+    True
+    """
+    return VectorReconstructor(V, F, idx, **options).apply(vectors, names=names)

@@ -212,7 +212,7 @@ def _fan_angles(n, i, a, b, theta):
     return phi, start, boundary, manifold, nxt
 
 
-def connection(V, F):
+def connection(V, F, *, validated=False):
     """The discrete Levi-Civita connection of a triangle mesh (see the module's description).
 
     Parameters
@@ -221,6 +221,8 @@ def connection(V, F):
         Vertex positions.
     F : (m, 3) array_like of int
         Triangles.
+    validated : bool, optional
+        ``V``, ``F`` are arrays already checked (a mesh cut along barriers, whose copies coincide).
 
     Returns
     -------
@@ -231,7 +233,8 @@ def connection(V, F):
     MeshError
         If the mesh is malformed, or has no triangle.
     """
-    V, F = as_mesh(V, F, allow_unreferenced=True)
+    if not validated:
+        V, F = as_mesh(V, F, allow_unreferenced=True)
     if len(F) == 0:
         raise MeshError("vector fields need triangles: the mesh has none; pass its faces (F)")
     n = len(V)

@@ -108,17 +108,20 @@ class VectorFill:
         ``'direct'`` or ``'auto'``.
     max_distance : float, optional
         Positions farther than this from the surface are refused (the scalar methods' ``max_distance``).
+    validated : bool, optional
+        ``V``, ``F`` are arrays already checked (a mesh cut along barriers, whose copies coincide).
     """
 
     def __init__(self, V, F, idx, *, method="biharmonic", symmetry=1, smoothing=None, solver="auto",
-                 max_distance=None):
+                 max_distance=None, validated=False):
         if method not in ORDERS:
             raise OptionError(f"method={method!r} is not a vector method; pass one of {', '.join(ORDERS)}")
         if symmetry not in SYMMETRIES:
             raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
-        V, F = as_mesh(V, F, allow_unreferenced=True)
+        if not validated:
+            V, F = as_mesh(V, F, allow_unreferenced=True)
         self.V, self.F, self.method, self.symmetry, self.smoothing = V, F, method, symmetry, smoothing
-        self.connection = conn = connection(V, F)
+        self.connection = conn = connection(V, F, validated=True)
         n = conn.n
         idx_arr = np.asarray(idx)
         if idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating):

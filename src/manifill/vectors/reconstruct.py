@@ -96,7 +96,7 @@ class VectorReconstructor:
         self.cut = Cut(V, F, barriers) if barriers is not None else None
         Vw, Fw = (self.cut.V, self.cut.F) if self.cut is not None else (V, F)
         idx_w, self._rows = self._work_samples(idx)
-        kw = {"solver": solver, "max_distance": max_distance}
+        kw = {"solver": solver, "max_distance": max_distance, "validated": True}
         if fit is not None:
             from .hodge import HodgeFit
             self.engine = HodgeFit(Vw, Fw, idx_w, kind=fit, method=method, **kw)

@@ -28,7 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import MeshError
-from ..mesh.laplacian import laplacian
+from ..mesh.laplacian import assemble_laplacian
 from ..surface.curve_values import vertex_normals
 from ..validate import as_mesh
 
@@ -270,7 +270,7 @@ def connection(V, F, *, validated=False):
     hkey = h_from * n + h_to
     order = np.argsort(hkey, kind="stable")
     hkey_sorted = hkey[order]
-    W = laplacian(V, F, weights="cotan")
+    W = assemble_laplacian(V, F, "cotan")
     Wc = sp.triu(W, k=1).tocoo()
     ei, ej = Wc.row.astype(np.int64), Wc.col.astype(np.int64)
 

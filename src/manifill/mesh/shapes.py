@@ -5,7 +5,7 @@ import numpy as np
 
 from .edges import adjacency
 
-__all__ = ["icosphere", "uv_sphere", "grid", "great_circle_vertices"]
+__all__ = ["icosphere", "uv_sphere", "grid", "great_circle_vertices", "torus", "spherical_cap"]
 
 
 def icosphere(k=3, *, radius=1.0):
@@ -169,3 +169,56 @@ def great_circle_vertices(V, F, axes=(0, 1, 2)):
         crossing = side[A.row] & ~side[A.col]
         fixed[A.row[crossing]] = True
     return np.flatnonzero(fixed)
+
+
+def torus(rings=32, segments=64, *, major=1.0, minor=0.4):
+    """A torus about the z axis (genus 1: Euler characteristic 0), ``rings`` around its tube.
+
+    Returns
+    -------
+    V : (rings * segments, 3) float64 numpy array
+    F : (2 * rings * segments, 3) int64 numpy array
+        Triangles, outward oriented.
+
+    Examples
+    --------
+    >>> V, F = torus(8, 16)
+    >>> len(V) - len(F) // 2 * 3 + len(F)  # V - E + F
+    0
+    """
+    u = np.arange(segments) * (2 * np.pi / segments)  # around the z axis
+    v = np.arange(rings) * (2 * np.pi / rings)  # around the tube
+    U, W = np.meshgrid(u, v, indexing="ij")
+    r = major + minor * np.cos(W)
+    V = np.column_stack([(r * np.cos(U)).ravel(), (r * np.sin(U)).ravel(), (minor * np.sin(W)).ravel()])
+    i, j = np.meshgrid(np.arange(segments), np.arange(rings), indexing="ij")
+    a = i * rings + j
+    b = ((i + 1) % segments) * rings + j
+    c = ((i + 1) % segments) * rings + (j + 1) % rings
+    d = i * rings + (j + 1) % rings
+    F = np.concatenate([np.column_stack([a.ravel(), b.ravel(), c.ravel()]),
+                        np.column_stack([a.ravel(), c.ravel(), d.ravel()])])
+    return V, F.astype(np.int64)
+
+
+def spherical_cap(k=5, *, height=0.0, radius=1.0):
+    """The part of an icosphere above ``z = height * radius``: an open cap (a disk, Euler characteristic 1).
+
+    Returns
+    -------
+    V, F
+        The cap's vertices (those of a face kept) and triangles, outward oriented.
+
+    Examples
+    --------
+    >>> V, F = spherical_cap(2)
+    >>> bool((V[:, 2] > -0.5).all())
+    True
+    """
+    V, F = icosphere(k, radius=radius)
+    keep = (V[F, 2].mean(axis=1) > height * radius)
+    F = F[keep]
+    used = np.unique(F)
+    new = np.full(len(V), -1, dtype=np.int64)
+    new[used] = np.arange(len(used))
+    return V[used], new[F]

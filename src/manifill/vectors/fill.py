@@ -23,15 +23,12 @@ from ..mesh.laplacian import mass_matrix
 from ..surface.locate import locate_points
 from ..validate import as_indices, as_mesh
 from .connection import connection, real_form
+from .options import NORMAL, SYMMETRIES, VECTOR_METHODS
 
 __all__ = ["ORDERS", "SYMMETRIES", "NORMAL", "VectorFill", "tangent_parts"]
 
 #: The energies by name: the power of the connection Laplacian.
-ORDERS = {"harmonic": 1, "biharmonic": 2}
-#: The symmetries: 1 an arrow, 2 a line (no sign), 4 a cross.
-SYMMETRIES = (1, 2, 4)
-#: What a sample's normal part beyond a tenth of its length gets: refused, or dropped.
-NORMAL = ("refuse", "drop")
+ORDERS = {name: m.order for name, m in VECTOR_METHODS.items() if m.energy}
 NORMAL_LIMIT = 0.1
 
 

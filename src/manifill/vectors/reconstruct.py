@@ -15,33 +15,11 @@ from ..errors import OptionError, SampleError
 from ..surface.barriers import Cut
 from ..surface.curve_values import vertex_normals
 from ..validate import as_mesh
-from .fill import NORMAL, ORDERS, SYMMETRIES, VectorFill
+from .fill import VectorFill
+from .options import VectorOptions
 from .result import VectorReconstruction
 
-__all__ = ["FITS", "VECTOR_METHODS", "VectorReconstructor", "reconstruct_vectors"]
-
-#: The vector methods: the connection's energies, and its Matérn field.
-VECTOR_METHODS = tuple(ORDERS) + ("gp",)
-#: The constrained fits: None (any tangent field), a gradient, a rotated gradient.
-FITS = (None, "curl-free", "divergence-free")
-
-
-def _check(method, symmetry, fit, bounds, normal, smoothing):
-    if method not in VECTOR_METHODS:
-        raise OptionError(f"method={method!r} is not a vector method; pass one of {', '.join(VECTOR_METHODS)}")
-    if symmetry not in SYMMETRIES:
-        raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
-    if fit not in FITS:
-        raise OptionError(f"fit={fit!r}: pass None, 'curl-free' or 'divergence-free'")
-    if fit is not None and (symmetry != 1 or method == "gp"):
-        raise OptionError(f"fit={fit!r} fits arrows (symmetry=1) with an energy method; drop fit= or pass "
-                          f"method='biharmonic'")
-    if normal not in NORMAL:
-        raise OptionError(f"normal={normal!r}: pass 'refuse' or 'drop'")
-    if not (isinstance(bounds, bool) or (isinstance(bounds, (int, float)) and bounds > 0)):
-        raise OptionError(f"bounds={bounds!r}: pass True (the samples' largest magnitude), False, or a magnitude > 0")
-    if smoothing is not None and method == "gp":
-        raise OptionError("smoothing= is for the energy methods; the gp takes noise= (a variance)")
+__all__ = ["VectorReconstructor", "reconstruct_vectors"]
 
 
 class VectorReconstructor:
@@ -81,30 +59,33 @@ class VectorReconstructor:
         Positions farther than this from the surface are refused.
     gp : dict, optional
         ``method='gp'``: ``range``, ``sigma`` (fitted when not given) and ``noise`` (a variance).
+    options : VectorOptions, optional
+        All the options above as one checked object (:class:`manifill.vectors.options.VectorOptions`); keywords
+        given beside it change it.
     """
 
-    def __init__(self, V, F, idx, *, method="biharmonic", symmetry=1, fit=None, bounds=True, smoothing=None,
-                 normal="refuse", barriers=None, solver="auto", max_distance=None, gp=None):
+    def __init__(self, V, F, idx, *, barriers=None, options=None, **keywords):
         t0 = time.perf_counter()
         if F is None:
             raise OptionError("vector fields need triangles: pass the mesh's faces F (a point cloud has none; mesh "
                               "it first)")
-        _check(method, symmetry, fit, bounds, normal, smoothing)
+        o = self.options = VectorOptions.build(options, **keywords)
         V, F = as_mesh(V, F, allow_unreferenced=True)
         self.V, self.F = V, F
-        self.method, self.symmetry, self.fit, self.bounds, self.normal = method, symmetry, fit, bounds, normal
+        method, symmetry, fit = o.method, o.symmetry, o.fit
+        self.method, self.symmetry, self.fit, self.bounds, self.normal = method, symmetry, fit, o.bounds, o.normal
         self.cut = Cut(V, F, barriers) if barriers is not None else None
         Vw, Fw = (self.cut.V, self.cut.F) if self.cut is not None else (V, F)
         idx_w, self._rows = self._work_samples(idx)
-        kw = {"solver": solver, "max_distance": max_distance, "validated": True}
+        kw = {"solver": o.solver, "max_distance": o.max_distance, "validated": True}
         if fit is not None:
             from .hodge import HodgeFit
             self.engine = HodgeFit(Vw, Fw, idx_w, kind=fit, method=method, **kw)
-        elif method == "gp":
+        elif o.kind.gives_std:
             from .gp import VectorGP
-            self.engine = VectorGP(Vw, Fw, idx_w, symmetry=symmetry, **(gp or {}), **kw)
+            self.engine = VectorGP(Vw, Fw, idx_w, symmetry=symmetry, **(o.gp or {}), **kw)
         else:
-            self.engine = VectorFill(Vw, Fw, idx_w, method=method, symmetry=symmetry, smoothing=smoothing, **kw)
+            self.engine = VectorFill(Vw, Fw, idx_w, method=method, symmetry=symmetry, smoothing=o.smoothing, **kw)
         self.k = len(np.asarray(idx))
         self.idx = self._sample_vertices(idx)
         self.normals = vertex_normals(V, F)

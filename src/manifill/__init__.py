@@ -55,6 +55,9 @@ from .surface.options import Options
 from .surface.methods.registry import method_of
 from .io.stream import reconstruct_series
 from .surface.surface import Surface
+from .vectors.options import VectorOptions
+from .vectors.reconstruct import VectorReconstructor, reconstruct_vectors
+from .vectors.result import VectorReconstruction
 
 __all__ = [
     # errors
@@ -66,6 +69,8 @@ __all__ = [
     "Surface", "reconstruct_surface", "check_gradual", "GradualCheck",
     "partition", "Partition", "values_on_curves", "CurveValues", "fill_patches", "cross_validate",
     "CrossValidation", "locate_points", "SurfacePoints", "GPOptions", "gp_tets", "gp_voxels",
+    # tangent vector, line and cross fields on surfaces
+    "reconstruct_vectors", "VectorReconstructor", "VectorReconstruction", "VectorOptions",
     # the harmonic problem and the operators
     "harmonic", "HarmonicSolver", "biharmonic", "PolyharmonicSolver", "laplacian", "mass_matrix", "QuadraticSolver",
     "min_quad_with_fixed",

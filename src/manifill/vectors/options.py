@@ -38,7 +38,29 @@ NORMAL = ("refuse", "drop")
 
 @dataclass(frozen=True)
 class VectorOptions:
-    """Every option of a vector reconstruction (see :class:`manifill.VectorReconstructor` for each)."""
+    """Every option of a vector reconstruction, checked once (``VectorOptions.build(**keywords)``).
+
+    Attributes
+    ----------
+    method : {'biharmonic', 'harmonic', 'gp'}
+        The connection's biharmonic or Dirichlet energy, or its Matérn field (a mean and a std).
+    symmetry : {1, 2, 4}
+        Arrows, lines (no sign) or crosses.
+    fit : {None, 'curl-free', 'divergence-free'}
+        A potential's gradient or a stream function's rotated gradient fitted to the arrows.
+    bounds : bool or float
+        True: no magnitude above the samples' largest; a number: that magnitude; False: none.
+    smoothing : None, float >= 0 or 'auto'
+        Noisy arrows: the energy weighed against the squared misfit.
+    normal : {'refuse', 'drop'}
+        A sample more than a tenth normal to the surface: refused, or its normal part dropped.
+    solver : {'auto', 'direct', 'amg', 'iterate'}
+        The solve's backend.
+    max_distance : float or None
+        Sample positions farther than this from the surface are refused.
+    gp : dict or None
+        ``method='gp'``: ``range``, ``sigma`` and ``noise``.
+    """
 
     method: object = "biharmonic"
     symmetry: object = 1

@@ -7,9 +7,14 @@ curl-free or divergence-free flows) or :mod:`manifill.vectors.gp`'s (the connect
 mean and a std). Barriers cut the mesh as they do for scalar fields (:class:`manifill.surface.barriers.Cut`).
 """
 
+from __future__ import annotations
+
 import time
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, SampleError
 from ..surface.barriers import Cut
@@ -33,6 +38,13 @@ class VectorReconstructor:
         Triangles.
     idx : (k,) array_like of int, or (k, 3) array_like of float
         Sample vertices, or sample positions (each at its closest surface point).
+    barriers : list of paths, or (m,) labels, optional
+        Lines no field may cross (as :func:`manifill.reconstruct`'s ``barriers``).
+    options : VectorOptions, optional
+        All the options below as one checked object (:class:`manifill.VectorOptions`); keywords given beside it
+        change it.
+    **keywords
+        The options one by one:
     method : {'biharmonic', 'harmonic', 'gp'}, optional
         ``biharmonic`` (the default): the smoothest field of the connection's biharmonic energy through the
         arrows; ``harmonic``: of its Dirichlet energy (a vector's direction turns along straight paths between
@@ -51,20 +63,16 @@ class VectorReconstructor:
     normal : {'refuse', 'drop'}, optional
         A sample whose part normal to the surface is more than a tenth of its length is refused (the default: a
         sign of vectors in another frame or order) or has that part dropped.
-    barriers : list of paths, or (m,) labels, optional
-        Lines no field may cross (as :func:`manifill.reconstruct`'s ``barriers``).
     solver : {'auto', 'direct', 'amg', 'iterate'}, optional
         The solve's backend.
     max_distance : float, optional
         Positions farther than this from the surface are refused.
     gp : dict, optional
         ``method='gp'``: ``range``, ``sigma`` (fitted when not given) and ``noise`` (a variance).
-    options : VectorOptions, optional
-        All the options above as one checked object (:class:`manifill.vectors.options.VectorOptions`); keywords
-        given beside it change it.
     """
 
-    def __init__(self, V, F, idx, *, barriers=None, options=None, **keywords):
+    def __init__(self, V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, *, barriers: Any = None,
+                 options: VectorOptions | None = None, **keywords: Any) -> None:
         t0 = time.perf_counter()
         if F is None:
             raise OptionError("vector fields need triangles: pass the mesh's faces F (a point cloud has none; mesh "
@@ -107,8 +115,15 @@ class VectorReconstructor:
         pts = getattr(self.engine, "points", None)
         return np.full(len(arr), -1, dtype=np.int64) if pts is None else np.where(pts.vertex >= 0, pts.vertex, -1)
 
-    def apply(self, vectors, names=None):
+    def apply(self, vectors: ArrayLike, names: Sequence[str] | None = None) -> VectorReconstruction:
         """The fields for arrows ``(k, 3)`` (one field) or ``(k, 3, p)`` (``p`` fields, e.g. times).
+
+        Parameters
+        ----------
+        vectors : (k, 3) or (k, 3, p) array_like of float
+            The arrows in space, in the order of ``idx``.
+        names : list of str, optional
+            The fields' names in files.
 
         Returns
         -------
@@ -182,7 +197,8 @@ def conn_centroids(engine, faces):
     return engine.V[faces].mean(axis=1)
 
 
-def reconstruct_vectors(V, F, idx, vectors, *, names=None, **options):
+def reconstruct_vectors(V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, vectors: ArrayLike, *,
+                        names: Sequence[str] | None = None, **options: Any) -> VectorReconstruction:
     """Reconstruct a tangent vector field on a surface from arrows at a few places.
 
     Parameters

@@ -17,7 +17,8 @@ from ..errors import OptionError
 from ..tolerances import TOL
 from .cholesky import cholesky
 
-__all__ = ["DIRECT_ENV", "PARDISO_MIN", "direct_factoriser", "PardisoFactor", "factorise"]
+__all__ = ["DIRECT_ENV", "PARDISO_MIN", "direct_factoriser", "PardisoFactor", "factorise", "pardiso_module",
+           "pardiso_solver"]
 
 #: Smallest system Pardiso factorises: below it SuperLU is faster (measured on sphere Laplacians,
 #: factorisation and one solve: 3.3 / 77 ms at 642 unknowns, 16 / 27 ms at 2,562, 110 / 66 ms at 10,242).
@@ -44,7 +45,7 @@ def direct_factoriser():
     if want == "superlu":
         return "superlu"
     try:
-        _pypardiso()
+        pardiso_module()
     except ImportError:
         return "superlu"
     return "pardiso"
@@ -102,14 +103,14 @@ def _mkl_named():
             os.environ.pop("PYPARDISO_MKL_RT", None)
 
 
-def _pypardiso():
+def pardiso_module():
     """``import pypardiso``, with MKL's library named for it (its import builds a solver)."""
     with _mkl_named():
         import pypardiso
     return pypardiso
 
 
-def _pardiso_solver(pypardiso):
+def pardiso_solver(pypardiso):
     """A new ``PyPardisoSolver``, with MKL's library named."""
     with _mkl_named():
         return pypardiso.PyPardisoSolver()
@@ -150,14 +151,14 @@ def factorise(A, factoriser=None, spd=False):
         return f"{f.name} (Cholesky)", f
     want = direct_factoriser() if factoriser is None else factoriser
     if want == "pardiso" and direct_factoriser() == "pardiso" and A.shape[0] >= PARDISO_MIN:
-        pypardiso = _pypardiso()
+        pypardiso = pardiso_module()
         A = sp.csr_matrix(A)
         A.sort_indices()
         if spd and _symmetric(A):
             got = _cholesky(pypardiso, A)
             if got is not None:
                 return "pardiso (symmetric positive definite)", got
-        solver = _pardiso_solver(pypardiso)  # real non-symmetric: also the KKT systems
+        solver = pardiso_solver(pypardiso)  # real non-symmetric: also the KKT systems
         solver.factorize(A)
         perturbed = int(solver.get_iparms().get(14, 0))  # iparm(14): pivots Pardiso had to perturb
         if not perturbed:
@@ -179,7 +180,7 @@ def _cholesky(pypardiso, A):
     when Pardiso finds it is not (a zero or negative pivot)."""
     U = sp.triu(A, format="csr")
     U.sort_indices()
-    solver = _pardiso_solver(pypardiso)
+    solver = pardiso_solver(pypardiso)
     solver.set_matrix_type(2)  # real symmetric positive definite
     try:
         solver.factorize(U)

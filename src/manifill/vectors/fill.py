@@ -15,8 +15,10 @@ the result's direction is the ``n``-th root's, one of the ``n`` equal ones.
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import OptionError, SampleError
+from ..linalg.hermitian import factorise_hermitian
 from ..linalg.quadratic import QuadraticSolver
 from ..linalg.smoothing import smooth
 from ..mesh.laplacian import mass_matrix
@@ -138,13 +140,19 @@ class VectorFill:
         if len(np.unique(self.vertices)) < len(self.vertices):
             raise SampleError("two samples sit at one vertex: merge them (their mean vector) or move one")
         self.k = len(self.vertex_samples) + len(self.face_samples)
-        A = real_form(conn.laplacian(symmetry))
+        Ac = conn.laplacian(symmetry)
         self.mass = mass_matrix(V, F).diagonal()
         if ORDERS[method] == 2:
-            inv = np.repeat(1.0 / np.maximum(self.mass, np.finfo(float).tiny), 2)
-            A = (A @ sp.diags_array(inv) @ A).tocsr()
-        self.A = A
+            inv = 1.0 / np.maximum(self.mass, np.finfo(float).tiny)
+            Ac = (Ac @ sp.diags_array(inv) @ Ac).tocsr()
         self.rows = _real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
+        self.complex = None
+        if smoothing is None and self.rows is None and solver in ("auto", "direct"):
+            self.complex = _HermitianDirichlet(Ac, self.vertices, F)
+            self.A = self.solver = None
+            self.solver_name = solver
+            return
+        self.A = A = real_form(Ac)
         if smoothing is None:
             self.solver = QuadraticSolver(A, _interleave(self.vertices), Aeq=self.rows,
                                           solver="direct" if solver == "auto" else solver,
@@ -184,6 +192,10 @@ class VectorFill:
         W = self.sample_coordinates(vectors, normal)
         report = {"method": self.method, "symmetry": self.symmetry, "samples": self.k,
                   "inside_faces": int(len(self.face_samples))}
+        if self.complex is not None:
+            Z = self.complex.solve(W[self.vertex_samples])
+            report["solver"] = self.complex.name
+            return Z, report
         if self.solver is not None:
             vals = _to_real(W[self.vertex_samples])
             beq = _to_real(W[self.face_samples]) if self.rows is not None else None
@@ -200,6 +212,48 @@ class VectorFill:
         if self.symmetry == 1:
             return Z
         return np.abs(Z) * np.exp(1j * np.angle(Z) / self.symmetry)
+
+
+class _HermitianDirichlet:
+    """The complex energy's Dirichlet problem: the sample vertices fixed, the rest solved with one Hermitian
+    factorisation (:func:`manifill.linalg.hermitian.factorise_hermitian`); vertices in no face are NaN."""
+
+    def __init__(self, A, fixed, F):
+        n = A.shape[0]
+        used = np.zeros(n, dtype=bool)
+        used[F.ravel()] = True
+        free_mask = used.copy()
+        free_mask[fixed] = False
+        self.n, self.fixed, self.free = n, fixed, np.flatnonzero(free_mask)
+        _check_pieces(F, n, fixed)
+        A = sp.csr_array(A)
+        rows = A[self.free]
+        self.A_fb = sp.csr_array(rows[:, fixed])
+        self.factor = factorise_hermitian(rows[:, self.free])
+        self.name = self.factor.name
+        self.unused = ~used
+
+    def solve(self, W):
+        W = np.asarray(W, dtype=np.complex128)
+        Z = np.empty((self.n,) + W.shape[1:], dtype=np.complex128)
+        Z[self.fixed] = W
+        Z[self.free] = self.factor.solve(-(self.A_fb @ W))
+        Z[self.unused] = np.nan
+        return Z
+
+
+def _check_pieces(F, n, fixed):
+    """Refuse a piece of the surface without a sample: nothing fixes its field."""
+    G = sp.coo_array((np.ones(F.size), (F.ravel(), np.roll(F, 1, axis=1).ravel())), shape=(n, n))
+    count, label = connected_components(G, directed=False)
+    used = np.zeros(n, dtype=bool)
+    used[F.ravel()] = True
+    has = np.zeros(count, dtype=bool)
+    has[label[fixed]] = True
+    empty = np.unique(label[used & ~has[label]])
+    if empty.size:
+        raise SampleError(f"{empty.size} piece(s) of the surface have no sample (the first has "
+                          f"{int(np.sum(label == empty[0])):,} vertices); add samples there or leave the piece out")
 
 
 def _coords(T, frames):

@@ -85,7 +85,8 @@ class VectorOptions:
         names = {f.name for f in fields(cls)}
         unknown = sorted(set(keywords) - names)
         if unknown:
-            raise OptionError(f"{unknown[0]}= is not an option of vector fields; pass one of {', '.join(sorted(names))}")
+            raise OptionError(f"{unknown[0]}= is not an option of vector fields; pass one of "
+                              f"{', '.join(sorted(names))}")
         out = replace(options if options is not None else cls(), **keywords)
         out.validate()
         return out

@@ -16,14 +16,17 @@ the result's direction is the ``n``-th root's, one of the ``n`` equal ones.
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from ..errors import OptionError, SampleError
 from ..linalg.hermitian import factorise_hermitian
 from ..linalg.quadratic import QuadraticSolver
+from ..mesh.pointcloud import Cloud
 from ..linalg.smoothing import smooth
 from ..mesh.laplacian import mass_matrix
 from ..surface.locate import locate_points
 from ..validate import as_indices, as_mesh
+from .cloud import cloud_connection
 from .connection import connection, real_form
 from .options import NORMAL, SYMMETRIES, VECTOR_METHODS
 
@@ -117,38 +120,28 @@ class VectorFill:
             raise OptionError(f"method={method!r} is not a vector method; pass one of {', '.join(ORDERS)}")
         if symmetry not in SYMMETRIES:
             raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
-        if not validated:
-            V, F = as_mesh(V, F, allow_unreferenced=True)
-        self.V, self.F, self.method, self.symmetry, self.smoothing = V, F, method, symmetry, smoothing
-        self.connection = conn = connection(V, F, validated=True)
-        n = conn.n
-        idx_arr = np.asarray(idx)
-        if idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating):
-            where = locate_points(V, F, idx_arr, max_distance=max_distance)
-            at_vertex = where.vertex >= 0
-            self.vertices = where.vertex[at_vertex]
-            self.face_samples = np.where(~at_vertex)[0]
-            self.faces, self.bary = where.faces[~at_vertex], where.bary[~at_vertex]
-            self.vertex_samples = np.where(at_vertex)[0]
-            self.points = where
+        if F is None:  # a point cloud: its own frames and fans
+            self.cloud = Cloud(np.asarray(V, dtype=np.float64))
+            V, conn, self.mass = self.cloud.P, cloud_connection(self.cloud), self.cloud.M
         else:
-            self.vertices = as_indices(idx_arr, n, what="idx")
-            self.vertex_samples = np.arange(len(self.vertices))
-            self.face_samples = np.zeros(0, dtype=np.int64)
-            self.faces, self.bary = np.zeros(0, dtype=np.int64), np.zeros((0, 3))
-            self.points = None
+            if not validated:
+                V, F = as_mesh(V, F, allow_unreferenced=True)
+            self.cloud, conn, self.mass = None, connection(V, F, validated=True), mass_matrix(V, F).diagonal()
+        self.V, self.F, self.method, self.symmetry, self.smoothing = V, F, method, symmetry, smoothing
+        self.connection = conn
+        n = conn.n
+        self._place(np.asarray(idx), max_distance)
         if len(np.unique(self.vertices)) < len(self.vertices):
             raise SampleError("two samples sit at one vertex: merge them (their mean vector) or move one")
         self.k = len(self.vertex_samples) + len(self.face_samples)
         Ac = conn.laplacian(symmetry)
-        self.mass = mass_matrix(V, F).diagonal()
         if ORDERS[method] == 2:
             inv = 1.0 / np.maximum(self.mass, np.finfo(float).tiny)
             Ac = (Ac @ sp.diags_array(inv) @ Ac).tocsr()
         self.rows = _real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
         self.complex = None
         if smoothing is None and self.rows is None and solver in ("auto", "direct"):
-            self.complex = _HermitianDirichlet(Ac, self.vertices, F)
+            self.complex = _HermitianDirichlet(Ac, self.vertices, conn.edges, self._used())
             self.A = self.solver = None
             self.solver_name = solver
             return
@@ -164,6 +157,36 @@ class VectorFill:
             self.S = _real_rows(S)
             self.solver = None
         self.solver_name = solver
+
+    def _place(self, idx_arr, max_distance):
+        """The samples: vertices (or a cloud's nearest points) fixed, positions inside faces as rows."""
+        n = self.connection.n
+        self.face_samples = np.zeros(0, dtype=np.int64)
+        self.faces, self.bary, self.points = np.zeros(0, dtype=np.int64), np.zeros((0, 3)), None
+        if idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating) and self.F is None:
+            dist, self.vertices = cKDTree(self.V).query(idx_arr)
+            if max_distance is not None and np.max(dist) > max_distance:
+                raise SampleError(f"sample {int(np.argmax(dist))} is {np.max(dist):.3g} from the nearest point of "
+                                  f"the cloud, beyond max_distance={max_distance}; check the positions' units")
+        elif idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating):
+            where = locate_points(self.V, self.F, idx_arr, max_distance=max_distance)
+            at_vertex = where.vertex >= 0
+            self.vertices = where.vertex[at_vertex]
+            self.face_samples = np.where(~at_vertex)[0]
+            self.faces, self.bary = where.faces[~at_vertex], where.bary[~at_vertex]
+            self.points = where
+        else:
+            self.vertices = as_indices(idx_arr, n, what="idx")
+        self.vertex_samples = np.setdiff1d(np.arange(len(idx_arr)), self.face_samples)
+
+    def _used(self):
+        """The vertices in a face (a cloud: every point)."""
+        used = np.zeros(self.connection.n, dtype=bool)
+        if self.F is None:
+            used[:] = True
+        else:
+            used[np.asarray(self.F).ravel()] = True
+        return used
 
     def sample_coordinates(self, vectors, normal="refuse"):
         """The arrows ``(k, 3[, p])`` as complex numbers in their vertex's or face's frame, in the power
@@ -218,14 +241,12 @@ class _HermitianDirichlet:
     """The complex energy's Dirichlet problem: the sample vertices fixed, the rest solved with one Hermitian
     factorisation (:func:`manifill.linalg.hermitian.factorise_hermitian`); vertices in no face are NaN."""
 
-    def __init__(self, A, fixed, F):
+    def __init__(self, A, fixed, edges, used):
         n = A.shape[0]
-        used = np.zeros(n, dtype=bool)
-        used[F.ravel()] = True
         free_mask = used.copy()
         free_mask[fixed] = False
         self.n, self.fixed, self.free = n, fixed, np.flatnonzero(free_mask)
-        _check_pieces(F, n, fixed)
+        _check_pieces(edges, used, fixed)
         A = sp.csr_array(A)
         rows = A[self.free]
         self.A_fb = sp.csr_array(rows[:, fixed])
@@ -242,12 +263,11 @@ class _HermitianDirichlet:
         return Z
 
 
-def _check_pieces(F, n, fixed):
+def _check_pieces(edges, used, fixed):
     """Refuse a piece of the surface without a sample: nothing fixes its field."""
-    G = sp.coo_array((np.ones(F.size), (F.ravel(), np.roll(F, 1, axis=1).ravel())), shape=(n, n))
+    n = len(used)
+    G = sp.coo_array((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     count, label = connected_components(G, directed=False)
-    used = np.zeros(n, dtype=bool)
-    used[F.ravel()] = True
     has = np.zeros(count, dtype=bool)
     has[label[fixed]] = True
     empty = np.unique(label[used & ~has[label]])

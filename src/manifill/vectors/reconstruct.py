@@ -74,11 +74,12 @@ class VectorReconstructor:
     def __init__(self, V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, *, barriers: Any = None,
                  options: VectorOptions | None = None, **keywords: Any) -> None:
         t0 = time.perf_counter()
-        if F is None:
-            raise OptionError("vector fields need triangles: pass the mesh's faces F (a point cloud has none; mesh "
-                              "it first)")
         o = self.options = VectorOptions.build(options, **keywords)
-        V, F = as_mesh(V, F, allow_unreferenced=True)
+        if F is None and (o.fit is not None or barriers is not None):
+            raise OptionError("a point cloud (F=None) takes the vector fill only: fit= and barriers= need "
+                              "triangles; pass the mesh's faces")
+        if F is not None:
+            V, F = as_mesh(V, F, allow_unreferenced=True)
         self.V, self.F = V, F
         method, symmetry, fit = o.method, o.symmetry, o.fit
         self.method, self.symmetry, self.fit, self.bounds, self.normal = method, symmetry, fit, o.bounds, o.normal
@@ -96,7 +97,9 @@ class VectorReconstructor:
             self.engine = VectorFill(Vw, Fw, idx_w, method=method, symmetry=symmetry, smoothing=o.smoothing, **kw)
         self.k = len(np.asarray(idx))
         self.idx = self._sample_vertices(idx)
-        self.normals = vertex_normals(V, F)
+        conn = getattr(self.engine, "connection", None)
+        self.V = getattr(self.engine, "V", V) if F is None else V  # a cloud's points as it keeps them
+        self.normals = vertex_normals(V, F) if F is not None else conn.frames[:, 2]
         self.setup_seconds = time.perf_counter() - t0
 
     def _work_samples(self, idx):

@@ -5,6 +5,7 @@ import re
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from test_readme import _demo_files
@@ -37,6 +38,11 @@ def test_a_page_s_python_runs(page, tmp_path, monkeypatch):
 
     manifill.write_mesh(tmp_path / "scalp.vtp", *manifill.read_mesh(tmp_path / "manifill-demo" / "sphere.ply"))
     (tmp_path / "electrodes.csv").write_bytes((tmp_path / "manifill-demo" / "samples.csv").read_bytes())
+    V, _ = manifill.read_mesh(tmp_path / "scalp.vtp")  # arrows: a rotation about z at 30 vertices, tangent
+    idx = np.arange(0, len(V), len(V) // 30)[:30]
+    arrows = np.cross(V[idx] / np.linalg.norm(V[idx], axis=1, keepdims=True), [0.0, 0.0, 1.0])
+    np.savetxt(tmp_path / "arrows.csv", np.column_stack([idx, arrows]), delimiter=",", header="vertex,vx,vy,vz",
+               comments="", fmt=["%d", "%.9g", "%.9g", "%.9g"])
     scope = {}
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)  # the pages use today's names

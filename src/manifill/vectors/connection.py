@@ -2,7 +2,8 @@
 
 A tangent vector at vertex ``i`` is a complex number ``z`` in the vertex's frame. The frame is intrinsic
 (Knöppel, Crane, Pinkall and Schröder 2013; Sharp, Soliman and Crane 2019): going around the vertex, the
-corner angles are scaled to sum to ``2 pi`` (``pi`` on the boundary), so that the edge ``i -> j`` has an angle
+corner angles are scaled to sum to ``2 pi`` (on the boundary they stay as they are: a constant field on a flat
+mesh is then parallel, so reproduced exactly), so that the edge ``i -> j`` has an angle
 ``phi_ij`` there. Carrying a vector along the edge keeps its angle to the edge, so the transport from ``i`` to
 ``j`` multiplies by ``r_ij = exp(1j (phi_ji - phi_ij + pi))``. The vector Dirichlet energy is
 
@@ -79,7 +80,8 @@ class Connection:
         The angle carrying a vector from the face's corner ``k`` (vertex ``F[f, k]``) into the face's frame.
     face_curvature : (m,) numpy array
         ``Omega_f``: the face's scaled corner angles less ``pi`` (the connection's holonomy around it); they
-        sum to ``2 pi`` times the Euler characteristic on a closed surface.
+        sum to ``2 pi`` times the Euler characteristic on a closed surface (on an open one, less the
+        boundary's turning).
     F : (m, 3) int64 numpy array
         The faces.
     """
@@ -242,7 +244,7 @@ def connection(V, F, *, validated=False):
     phi, start, boundary, manifold, _ = _fan_angles(n, i, a, b, theta)
     total = np.bincount(i, theta, n)
     with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(total > 0, np.where(boundary, np.pi, TWO_PI) / total, 1.0)
+        scale = np.where(total > 0, np.where(boundary, total, TWO_PI) / total, 1.0)
     N = vertex_normals(V, F)
     bad = np.linalg.norm(N, axis=1) == 0
     if bad.any():

@@ -85,6 +85,7 @@ class VectorReconstructor:
         self.method, self.symmetry, self.fit, self.bounds, self.normal = method, symmetry, fit, o.bounds, o.normal
         self.cut = Cut(V, F, barriers) if barriers is not None else None
         Vw, Fw = (self.cut.V, self.cut.F) if self.cut is not None else (V, F)
+        self._work_V = Vw
         idx_w, self._rows = self._work_samples(idx)
         kw = {"solver": o.solver, "max_distance": o.max_distance, "validated": True}
         if fit is not None:
@@ -164,6 +165,9 @@ class VectorReconstructor:
             vertex = conn.to_space(self.engine.representative(Z))
             face = conn.to_space(self.engine.representative(conn.on_faces(Z, self.symmetry)), faces=True)
             return vertex, face, Z, report
+        if hasattr(out, "vertex_vectors"):  # a Hodge fit: the vertex field's numbers for its singularities
+            Z = self.engine.connection.to_complex(np.nan_to_num(out.vertex_vectors))
+            return out.vertex_vectors, out.face_vectors, Z, dict(out.report)
         return out.vertex, out.faces, out.complex, dict(out.report)
 
     def _bound(self, vertex, face, X):
@@ -191,13 +195,8 @@ class VectorReconstructor:
         for j in range(Zs.shape[1]):
             ind = conn.singularities(Zs[:, j], self.symmetry)
             f = np.flatnonzero(ind)
-            out.append({"faces": f, "index": ind[f], "positions": conn_centroids(self.engine, F[f])})
+            out.append({"faces": f, "index": ind[f], "positions": self._work_V[F[f]].mean(axis=1)})
         return out
-
-
-def conn_centroids(engine, faces):
-    """The centroids of the faces ``(j, 3)`` of the mesh the engine works on."""
-    return engine.V[faces].mean(axis=1)
 
 
 def reconstruct_vectors(V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, vectors: ArrayLike, *,

@@ -138,6 +138,7 @@ class VectorFill:
         if ORDERS[method] == 2:
             inv = 1.0 / np.maximum(self.mass, np.finfo(float).tiny)
             Ac = (Ac @ sp.diags_array(inv) @ Ac).tocsr()
+        self.energy = Ac
         self.rows = _real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
         self.complex = None
         if smoothing is None and self.rows is None and solver in ("auto", "direct"):

@@ -21,6 +21,7 @@ from ..surface.barriers import Cut
 from ..surface.curve_values import vertex_normals
 from ..validate import as_mesh
 from .fill import VectorFill
+from .lines import LineFill
 from .options import VectorOptions
 from .result import VectorReconstruction
 
@@ -95,7 +96,9 @@ class VectorReconstructor:
             from .gp import VectorGP
             self.engine = VectorGP(Vw, Fw, idx_w, symmetry=symmetry, **(o.gp or {}), **kw)
         else:
-            self.engine = VectorFill(Vw, Fw, idx_w, method=method, symmetry=symmetry, smoothing=o.smoothing, **kw)
+            fill = LineFill if symmetry == 2 and o.smoothing is None else VectorFill
+            extra = {} if fill is LineFill else {"symmetry": symmetry, "smoothing": o.smoothing}
+            self.engine = fill(Vw, Fw, idx_w, method=method, **extra, **kw)
         self.k = len(np.asarray(idx))
         self.idx = self._sample_vertices(idx)
         conn = getattr(self.engine, "connection", None)
@@ -159,7 +162,7 @@ class VectorReconstructor:
 
     def _unpack(self, out):
         """Every engine's answer as vertex vectors, face vectors, the complex vertex field and a report."""
-        if isinstance(self.engine, VectorFill):
+        if hasattr(self.engine, "representative"):  # the fill: complex values in the power representation
             Z, report = out
             conn = self.engine.connection
             vertex = conn.to_space(self.engine.representative(Z))

@@ -25,6 +25,7 @@ POSITIONAL = {
     "A", "L",  # an energy matrix (QuadraticSolver, min_quad_with_fixed), a Laplacian (from_laplacian)
     # samples
     "idx", "vals",  # sample vertices (or positions) and their values
+    "vectors",  # the arrows at the samples (reconstruct_vectors)
     "voxels",  # sample voxels (k, 3) of a mask
     "points",  # positions to locate on a surface (locate_points)
     "part",  # Steps 2-3's Partition, what Step 4 (values_on_curves) works on
@@ -40,7 +41,7 @@ POSITIONAL = {
 #: Records manifill builds and returns (their fields are their contents); no one calls them with options.
 RECORDS = {
     "Result", "Reconstruction", "VolumeReconstruction", "BatchResult", "CrossValidation", "GradualCheck",
-    "Partition", "CurveValues", "SurfacePoints",
+    "Partition", "CurveValues", "SurfacePoints", "VectorReconstruction",
     "Surface",  # a record too: built by Surface.from_mesh, which is checked
 }
 

@@ -16,7 +16,6 @@ the result's direction is the ``n``-th root's, one of the ``n`` equal ones.
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from ..errors import OptionError, SampleError
 from ..linalg.hermitian import factorise_hermitian
@@ -24,69 +23,16 @@ from ..linalg.quadratic import QuadraticSolver
 from ..mesh.pointcloud import Cloud
 from ..linalg.smoothing import smooth
 from ..mesh.laplacian import mass_matrix
-from ..surface.locate import locate_points
-from ..validate import as_indices, as_mesh
+from ..validate import as_mesh
 from .cloud import cloud_connection
 from .connection import connection, real_form
 from .options import NORMAL, SYMMETRIES, VECTOR_METHODS
+from .places import SamplePlaces, interleave, real_rows, tangent_parts, to_complex, to_real
 
 __all__ = ["ORDERS", "SYMMETRIES", "NORMAL", "VectorFill", "tangent_parts"]
 
 #: The energies by name: the power of the connection Laplacian.
 ORDERS = {name: m.order for name, m in VECTOR_METHODS.items() if m.energy}
-NORMAL_LIMIT = 0.1
-
-
-def _interleave(i):
-    i = np.asarray(i, dtype=np.int64)
-    return np.column_stack([2 * i, 2 * i + 1]).ravel()
-
-
-def _real_rows(R):
-    """The real rows ``(2k, 2n)`` of complex rows ``(k, n)`` (unknowns and rows interleaved)."""
-    R = sp.coo_array(R)
-    r, c, a, b = R.row, R.col, R.data.real, R.data.imag
-    rows = np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1])
-    cols = np.concatenate([2 * c, 2 * c + 1, 2 * c, 2 * c + 1])
-    return sp.csr_array((np.concatenate([a, -b, b, a]), (rows, cols)), shape=(2 * R.shape[0], 2 * R.shape[1]))
-
-
-def _to_real(Z):
-    """Complex ``(k,)`` or ``(k, p)`` as real ``(2k,)`` or ``(2k, p)``, interleaved."""
-    Z = np.asarray(Z)
-    out = np.empty((2 * Z.shape[0],) + Z.shape[1:])
-    out[0::2], out[1::2] = Z.real, Z.imag
-    return out
-
-
-def _to_complex(X):
-    return X[0::2] + 1j * X[1::2]
-
-
-def tangent_parts(vectors, normals, normal="refuse", what="sample"):
-    """The vectors ``(k, 3[, p])`` less their parts along the unit ``normals`` ``(k, 3)``, checked.
-
-    Raises
-    ------
-    SampleError
-        With ``normal='refuse'``, a vector whose normal part is more than a tenth of its length (naming the first).
-    """
-    X = np.asarray(vectors, dtype=np.float64)
-    Nb = normals if X.ndim == 2 else normals[:, :, None]
-    along = np.sum(X * Nb, axis=1, keepdims=True)
-    length = np.linalg.norm(X, axis=1)
-    if normal == "refuse":
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = np.where(length > 0, np.abs(along[:, 0]) / length, 0.0)
-        bad = np.argwhere(frac > NORMAL_LIMIT)
-        if len(bad):
-            k = tuple(bad[0])
-            raise SampleError(f"{what} {k[0]}'s vector is {frac[k]:.0%} normal to the surface ({len(bad)} such, "
-                              f"more than {NORMAL_LIMIT:.0%} of their length): pass tangent vectors, or drop the "
-                              f"normal parts (normal='drop'); check the vectors' order and frame")
-    return X - along * Nb
-
-
 class VectorFill:
     """The vector fill of one mesh and one set of sample places, prepared once; :meth:`solve` for any arrows.
 
@@ -130,16 +76,15 @@ class VectorFill:
         self.V, self.F, self.method, self.symmetry, self.smoothing = V, F, method, symmetry, smoothing
         self.connection = conn
         n = conn.n
-        self._place(np.asarray(idx), max_distance)
-        if len(np.unique(self.vertices)) < len(self.vertices):
-            raise SampleError("two samples sit at one vertex: merge them (their mean vector) or move one")
-        self.k = len(self.vertex_samples) + len(self.face_samples)
+        self.places = p = SamplePlaces(V, F, idx, max_distance)
+        self.vertices, self.vertex_samples, self.face_samples = p.vertices, p.vertex_samples, p.face_samples
+        self.faces, self.bary, self.points, self.k = p.faces, p.bary, p.points, p.k
         Ac = conn.laplacian(symmetry)
         if ORDERS[method] == 2:
             inv = 1.0 / np.maximum(self.mass, np.finfo(float).tiny)
             Ac = (Ac @ sp.diags_array(inv) @ Ac).tocsr()
         self.energy = Ac
-        self.rows = _real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
+        self.rows = real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
         self.complex = None
         if smoothing is None and self.rows is None and solver in ("auto", "direct"):
             self.complex = _HermitianDirichlet(Ac, self.vertices, conn.edges, self._used())
@@ -148,37 +93,16 @@ class VectorFill:
             return
         self.A = A = real_form(Ac)
         if smoothing is None:
-            self.solver = QuadraticSolver(A, _interleave(self.vertices), Aeq=self.rows,
+            self.solver = QuadraticSolver(A, interleave(self.vertices), Aeq=self.rows,
                                           solver="direct" if solver == "auto" else solver,
                                           what="the connection's energy")
         else:
             unit = sp.csr_array((np.ones(len(self.vertices)), (np.arange(len(self.vertices)), self.vertices)),
                                 shape=(len(self.vertices), n))
             S = sp.vstack([unit, conn.face_rows(self.faces, self.bary, symmetry)]) if len(self.faces) else unit
-            self.S = _real_rows(S)
+            self.S = real_rows(S)
             self.solver = None
         self.solver_name = solver
-
-    def _place(self, idx_arr, max_distance):
-        """The samples: vertices (or a cloud's nearest points) fixed, positions inside faces as rows."""
-        n = self.connection.n
-        self.face_samples = np.zeros(0, dtype=np.int64)
-        self.faces, self.bary, self.points = np.zeros(0, dtype=np.int64), np.zeros((0, 3)), None
-        if idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating) and self.F is None:
-            dist, self.vertices = cKDTree(self.V).query(idx_arr)
-            if max_distance is not None and np.max(dist) > max_distance:
-                raise SampleError(f"sample {int(np.argmax(dist))} is {np.max(dist):.3g} from the nearest point of "
-                                  f"the cloud, beyond max_distance={max_distance}; check the positions' units")
-        elif idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating):
-            where = locate_points(self.V, self.F, idx_arr, max_distance=max_distance)
-            at_vertex = where.vertex >= 0
-            self.vertices = where.vertex[at_vertex]
-            self.face_samples = np.where(~at_vertex)[0]
-            self.faces, self.bary = where.faces[~at_vertex], where.bary[~at_vertex]
-            self.points = where
-        else:
-            self.vertices = as_indices(idx_arr, n, what="idx")
-        self.vertex_samples = np.setdiff1d(np.arange(len(idx_arr)), self.face_samples)
 
     def _used(self):
         """The vertices in a face (a cloud: every point)."""
@@ -192,24 +116,7 @@ class VectorFill:
     def sample_coordinates(self, vectors, normal="refuse"):
         """The arrows ``(k, 3[, p])`` as complex numbers in their vertex's or face's frame, in the power
         representation of :attr:`symmetry`: ``(k[, p])``."""
-        X = np.asarray(vectors, dtype=np.float64)
-        if X.ndim not in (2, 3) or X.shape[0] != self.k or X.shape[1] != 3:
-            raise SampleError(f"the vectors have shape {X.shape}; pass one 3-vector per sample, ({self.k}, 3)")
-        if not np.all(np.isfinite(X)):
-            raise SampleError("the vectors have NaN or infinite entries; drop those samples")
-        conn = self.connection
-        W = np.zeros((self.k,) + X.shape[2:], dtype=complex)
-        if len(self.vertex_samples):
-            fr = conn.frames[self.vertices]
-            T = tangent_parts(X[self.vertex_samples], fr[:, 2], normal)
-            W[self.vertex_samples] = conn.to_complex(T, at=self.vertices)
-        if len(self.face_samples):
-            fr = conn.face_frames[self.faces]
-            T = tangent_parts(X[self.face_samples], fr[:, 2], normal)
-            W[self.face_samples] = _coords(T, fr)
-        if self.symmetry > 1:
-            W = np.abs(W) * np.exp(1j * self.symmetry * np.angle(W))
-        return W
+        return self.places.coordinates(self.connection, vectors, normal, self.symmetry)
 
     def solve(self, vectors, *, normal="refuse"):
         """The vertex field ``Z`` (complex, ``(n,)`` or ``(n, p)``) and a report, for arrows ``(k, 3[, p])``."""
@@ -221,15 +128,15 @@ class VectorFill:
             report["solver"] = self.complex.name
             return Z, report
         if self.solver is not None:
-            vals = _to_real(W[self.vertex_samples])
-            beq = _to_real(W[self.face_samples]) if self.rows is not None else None
+            vals = to_real(W[self.vertex_samples])
+            beq = to_real(W[self.face_samples]) if self.rows is not None else None
             X = self.solver.solve(vals, beq=beq)
         else:
-            y = _to_real(np.concatenate([W[self.vertex_samples], W[self.face_samples]]))
+            y = to_real(np.concatenate([W[self.vertex_samples], W[self.face_samples]]))
             lam = self.smoothing
             X, info = smooth(self.A, self.S, y, lam, solver=self.solver_name)
             report["smoothing"] = {key: info[key] for key in ("lambda", "edf", "rms_residual") if key in info}
-        return _to_complex(X), report
+        return to_complex(X), report
 
     def representative(self, Z):
         """One vector per power-representation number: ``|Z| exp(1j arg Z / n)``."""
@@ -275,10 +182,3 @@ def _check_pieces(edges, used, fixed):
     if empty.size:
         raise SampleError(f"{empty.size} piece(s) of the surface have no sample (the first has "
                           f"{int(np.sum(label == empty[0])):,} vertices); add samples there or leave the piece out")
-
-
-def _coords(T, frames):
-    """Tangent vectors ``(k, 3[, p])`` in the frames ``(k, 3, 3)`` as complex numbers."""
-    if T.ndim == 2:
-        return np.einsum("kc,kc->k", T, frames[:, 0]) + 1j * np.einsum("kc,kc->k", T, frames[:, 1])
-    return np.einsum("kcp,kc->kp", T, frames[:, 0]) + 1j * np.einsum("kcp,kc->kp", T, frames[:, 1])

@@ -9,7 +9,8 @@ lumped (barycentric, as the scalar gp's) mass and ``K = kappa^2 M + L_c``, the p
 
 taken in its real form (``[x_0, y_0, x_1, ...]``, :func:`~manifill.vectors.connection.real_form`, ``M`` repeated
 per component), so that :class:`~manifill.linalg.spde.MaternShape` and :class:`~manifill.linalg.gaussian.Conditional`
-take it as they are. The mean is zero: a tangent field has no constant to estimate.
+take it as they are (the likelihood's covariances use the complex ``K``: :func:`_covariance`). The mean is zero: a
+tangent field has no constant to estimate.
 
 The field is *circular*: a complex-linear prior and complex-linear observations (a vertex's two components; a point
 inside a face, the corners carried into its frame; noise of equal variance on both components) keep the real
@@ -37,62 +38,50 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..errors import MeshError, OptionError, SampleError
-from ..linalg.cholesky import cholesky
 from ..linalg.gaussian import VARIANCES, Conditional, factoriser_for, observation_matrix
 from ..linalg.gpfit import fit_range
-from ..linalg.likelihood import VertexLikelihood
-from ..linalg.logdet import LogdetFactors, sparse_fit_pays
+from ..linalg.hermitian import factorise_hermitian
 from ..linalg.spde import MaternShape, kappa_from_range, range_from_kappa, sigma_from_tau, tau_from_sigma
 from ..mesh.laplacian import mass_matrix
-from ..surface.locate import locate_points
-from ..validate import as_indices, as_mesh
+from ..validate import as_mesh
 from .connection import connection, real_form
-from .fill import SYMMETRIES, tangent_parts
+from .options import SYMMETRIES
+from .places import SamplePlaces, interleave, real_rows
 
 __all__ = ["FIT_SAMPLES", "SOLVERS", "VectorGP", "VectorPosterior"]
 
-#: Most arrows the dense likelihood sees (a random subset, fixed, in the samples' order); exact arrows at vertices
-#: with CHOLMOD are all seen, through the sparse likelihood.
+#: Most arrows the likelihood sees (a random subset, fixed, in the samples' order). Not the scalar gp's sparse
+#: likelihood of every sample: its factor of the real form's ``Q`` is too costly here (41k vertices, 1,000 arrows,
+#: side by side on a loaded machine: 432 s for the fit against 68 s on 200 of them).
 FIT_SAMPLES = 200
 #: The linear solvers of the posterior.
 SOLVERS = ("auto", "direct", "amg")
 _ALPHA, _DIM = 2, 2
 
 
-def _pairs(i):
-    """The real unknowns ``[2 i, 2 i + 1]`` of the complex ones ``i``, interleaved."""
-    i = np.asarray(i, dtype=np.int64)
-    return np.column_stack([2 * i, 2 * i + 1]).ravel()
-
-
-def _real_rows(R):
-    """The real rows ``(2k, 2n)`` of complex rows ``(k, n)``, rows and unknowns interleaved."""
-    R = sp.coo_array(R)
-    r, c, a, b = R.row, R.col, R.data.real, R.data.imag
-    rows = np.concatenate([2 * r, 2 * r, 2 * r + 1, 2 * r + 1])
-    cols = np.concatenate([2 * c, 2 * c + 1, 2 * c, 2 * c + 1])
-    return sp.csr_array((np.concatenate([a, -b, b, a]), (rows, cols)), shape=(2 * R.shape[0], 2 * R.shape[1]))
-
-
-def _to_real(Z):
-    out = np.empty((2 * Z.shape[0],) + Z.shape[1:])
-    out[0::2], out[1::2] = Z.real, Z.imag
-    return out
+def _covariance(Lc, mass, Hc, kappa):
+    """``R`` (dense ``2k x 2k``): the real form of ``Hc K^-1 M K^-1 Hc^H``, the covariance shape of the samples'
+    components, from one complex Hermitian factorisation of ``K = kappa^2 M + L_c`` (at 41k vertices a third of
+    the real form's time: half the unknowns, a quarter of the factor's entries)."""
+    f = factorise_hermitian(Lc + sp.diags_array(kappa * kappa * mass))
+    W = np.asarray(f.solve(Hc.conj().T.toarray())).reshape(Lc.shape[0], -1)
+    C = W.conj().T @ (mass[:, None] * W)
+    C = (C + C.conj().T) * 0.5
+    R = np.empty((2 * C.shape[0], 2 * C.shape[0]))
+    R[0::2, 0::2], R[0::2, 1::2], R[1::2, 0::2], R[1::2, 1::2] = C.real, -C.imag, C.imag, C.real
+    return R
 
 
 def _s2_of_sigma(sigma, kappa):
     return 1.0 / tau_from_sigma(sigma, kappa, _ALPHA, _DIM) ** 2
 
 
-def _sigma_of_s2(s2, kappa):
-    return sigma_from_tau(1.0 / math.sqrt(s2), kappa, _ALPHA, _DIM)
-
-
 def _check(range_, sigma, noise, symmetry, solver, variance):
+    real = (int, float, np.integer, np.floating)
     for name, v in (("range", range_), ("sigma", sigma)):
-        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+        if v is not None and not (isinstance(v, real) and math.isfinite(v) and v > 0):
             raise OptionError(f"{name}={v!r} is not a length > 0; pass a positive number, or None to fit it")
-    if not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
+    if not (isinstance(noise, real) and math.isfinite(noise) and noise >= 0):
         raise OptionError(f"noise={noise!r} is not a variance >= 0; pass 0 for exact arrows or a positive variance")
     if symmetry not in SYMMETRIES:
         raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
@@ -140,25 +129,32 @@ class VectorPosterior:
     _draw: object = field(default=None, repr=False)
 
     @property
-    def vectors(self):
+    def complex(self):
+        """:attr:`Z`, the mean's complex numbers."""
+        return self.Z
+
+    @property
+    def vertex(self):
         """The mean as vectors in space, ``(n, 3[, p])`` (for ``symmetry > 1`` one of the equal directions)."""
-        Z = self.Z if self.symmetry == 1 else np.abs(self.Z) * np.exp(1j * np.angle(self.Z) / self.symmetry)
-        return self.connection.to_space(Z)
+        return self.connection.to_space(self._representative(self.Z))
+
+    @property
+    def faces(self):
+        """The mean carried into every face and averaged, as vectors in space, ``(m, 3[, p])``."""
+        return self.connection.to_space(self._representative(self.connection.on_faces(self.Z, self.symmetry)),
+                                        faces=True)
+
+    def _representative(self, Z):
+        return Z if self.symmetry == 1 else np.abs(Z) * np.exp(1j * np.angle(Z) / self.symmetry)
 
     @property
     def cov(self):
-        """The covariance of the vector in space per vertex, ``std^2 (I - n n')``: ``(n, 3, 3[, p])``."""
+        """The covariance of the vector in space per vertex, ``std^2 (I - n n')``: ``(n, 3, 3[, p])`` (in the
+        vertex's frame it is ``std^2 I``)."""
         N = self.connection.frames[:, 2]
         P = np.eye(3)[None] - N[:, :, None] * N[:, None, :]
         v = self.std ** 2
         return P * v[:, None, None] if v.ndim == 1 else P[..., None] * v[:, None, None, :]
-
-    @property
-    def cov_frame(self):
-        """The covariance of ``(x, y)`` in the vertex frame, ``std^2 I``: ``(n, 2, 2[, p])``."""
-        v = self.std ** 2
-        eye = np.eye(2)
-        return eye[None] * v[:, None, None] if v.ndim == 1 else eye[None, :, :, None] * v[:, None, None, :]
 
     def sample(self, count, seed=0, *, field=0):
         """``count`` draws of whole fields from the posterior of field ``field``: complex ``(n, count)``.
@@ -172,9 +168,15 @@ class VectorPosterior:
         p = 1 if self.Z.ndim == 1 else self.Z.shape[1]
         if not 0 <= field < p:
             raise OptionError(f"field={field} is not one of the {p} fields; pass 0 to {p - 1}")
-        E = self._draw(field, count, np.random.default_rng(seed))
+        E = self._draw(field, count, np.random.default_rng(seed if field == 0 else (seed, field)))
         mean = self.Z if self.Z.ndim == 1 else self.Z[:, field]
         return mean[:, None] + E
+
+    def draws_of(self, count, seed=0):
+        """:meth:`sample` of every field as vectors in space: :attr:`vertex`'s shape and the draws last."""
+        p = 1 if self.Z.ndim == 1 else self.Z.shape[1]
+        D = [self.connection.to_space(self._representative(self.sample(count, seed, field=j))) for j in range(p)]
+        return D[0] if self.Z.ndim == 1 else np.stack(D, axis=2)
 
 
 class VectorGP:
@@ -202,6 +204,8 @@ class VectorGP:
         Positions farther than this from the surface are refused.
     variance : {'auto', 'exact', 'sampled'}, optional
         How the std is computed (:meth:`~manifill.linalg.gaussian.Conditional.variance`).
+    validated : bool, optional
+        ``V``, ``F`` are arrays already checked (a mesh cut along barriers, whose copies coincide).
 
     Raises
     ------
@@ -211,73 +215,53 @@ class VectorGP:
         Malformed sample places, or two at one vertex.
     MeshError
         A malformed mesh, or a vertex of no face.
+
+    Notes
+    -----
+    :meth:`solve` (or :meth:`fit`, the same) takes the arrows; ``draws_of`` is then the last posterior's
+    :meth:`VectorPosterior.draws_of`. The factorisations of a posterior are kept for the next arrows with the same
+    hyperparameters (given ones: every call).
     """
 
     def __init__(self, V, F, idx, *, range=None, sigma=None, noise=0.0, symmetry=1, solver="auto",
-                 max_distance=None, variance="auto"):
+                 max_distance=None, variance="auto", validated=False):
         _check(range, sigma, noise, symmetry, solver, variance)
-        V, F = as_mesh(V, F, allow_unreferenced=True)
+        if not validated:
+            V, F = as_mesh(V, F, allow_unreferenced=True)
         self.V, self.F, self.symmetry, self.solver, self.variance = V, F, symmetry, solver, variance
         self.range, self.sigma, self.noise = range, sigma, float(noise)
-        self.connection = conn = connection(V, F)
+        self.connection = conn = connection(V, F, validated=True)
         c = mass_matrix(V, F, mass="barycentric").diagonal()
         if np.any(c <= 0):
             raise MeshError(f"vertex {int(np.argmin(c))} belongs to no face (no mass); drop the unreferenced "
                             f"vertices (manifill.mesh.clean.clean_mesh)")
         self._places(V, F, idx, max_distance)
-        self.shape = MaternShape(real_form(conn.laplacian(symmetry)), np.repeat(c, 2), None, _ALPHA, _DIM)
+        self.Lc, self.mass = conn.laplacian(symmetry), c
+        self.shape = MaternShape(real_form(self.Lc), np.repeat(c, 2), None, _ALPHA, _DIM)
         # the real data: vertex samples by vertex (Conditional wants them sorted), then the face samples
         order = np.argsort(self.vertices, kind="stable")
         self.order = np.concatenate([self.vertex_samples[order], self.face_samples])
-        self.idx = _pairs(self.vertices[order])
-        self.rows = (_real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None)
+        self.idx = interleave(self.vertices[order])
+        rows = conn.face_rows(self.faces, self.bary, symmetry)
+        self.rows = real_rows(rows) if len(self.faces) else None
+        self.Hc = sp.csr_array(sp.vstack([observation_matrix(conn.n, self.vertices[order]), rows]))
         E = conn.edges
         self.length = float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))
         self.diameter = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-        P = np.concatenate([V[self.vertices], self.points.points[self.face_samples]]) if self.points is not None \
-            else V[self.vertices]
+        P = V[self.vertices] if self.points is None else self.points.points
         self.spacing = self.diameter if len(P) < 2 else float(np.median(cKDTree(P).query(P, k=2)[0][:, 1]))
         self._conds = {}
 
     def _places(self, V, F, idx, max_distance):
         """The samples' vertices, and the faces and barycentric coordinates of those inside faces."""
-        idx_arr = np.asarray(idx)
-        if idx_arr.ndim == 2 and np.issubdtype(idx_arr.dtype, np.floating):
-            where = locate_points(V, F, idx_arr, max_distance=max_distance)
-            at_vertex = where.vertex >= 0
-            self.vertices = where.vertex[at_vertex]
-            self.vertex_samples, self.face_samples = np.where(at_vertex)[0], np.where(~at_vertex)[0]
-            self.faces, self.bary = where.faces[~at_vertex], where.bary[~at_vertex]
-            self.points = where
-        else:
-            self.vertices = as_indices(idx_arr, len(V), what="idx")
-            self.vertex_samples = np.arange(len(self.vertices))
-            self.face_samples = np.zeros(0, dtype=np.int64)
-            self.faces, self.bary, self.points = np.zeros(0, dtype=np.int64), np.zeros((0, 3)), None
-        if len(np.unique(self.vertices)) < len(self.vertices):
-            raise SampleError("two samples sit at one vertex: merge them (their mean vector) or move one")
-        self.k = len(self.vertex_samples) + len(self.face_samples)
-        if self.k == 0:
-            raise SampleError("no samples: pass at least one sample vertex or position")
+        self.places = p = SamplePlaces(V, F, idx, max_distance)
+        self.vertices, self.vertex_samples, self.face_samples = p.vertices, p.vertex_samples, p.face_samples
+        self.faces, self.bary, self.points, self.k = p.faces, p.bary, p.points, p.k
 
     def coordinates(self, vectors, normal="refuse"):
         """The arrows ``(k, 3[, p])`` as complex numbers in their vertex's or face's frame, ``(k[, p])`` (the
         power representation for ``symmetry > 1``); ``normal='drop'`` drops normal parts (else refused)."""
-        X = np.asarray(vectors, dtype=np.float64)
-        if X.ndim not in (2, 3) or X.shape[0] != self.k or X.shape[1] != 3:
-            raise SampleError(f"the vectors have shape {X.shape}; pass one 3-vector per sample, ({self.k}, 3)")
-        if not np.all(np.isfinite(X)):
-            raise SampleError("the vectors have NaN or infinite entries; drop those samples")
-        W = np.zeros((self.k,) + X.shape[2:], dtype=complex)
-        for which, frames in ((self.vertex_samples, self.connection.frames[self.vertices]),
-                              (self.face_samples, self.connection.face_frames[self.faces])):
-            if len(which):
-                T = tangent_parts(X[which], frames[:, 2], normal)
-                e1, e2 = (frames[:, 0], frames[:, 1]) if T.ndim == 2 else (frames[:, 0, :, None], frames[:, 1, :, None])
-                W[which] = np.sum(T * e1, axis=1) + 1j * np.sum(T * e2, axis=1)
-        if self.symmetry > 1:
-            W = np.abs(W) * np.exp(1j * self.symmetry * np.angle(W))
-        return W
+        return self.places.coordinates(self.connection, vectors, normal, self.symmetry)
 
     def solve(self, vectors, *, normal="refuse"):
         """The posterior of the field given the arrows ``(k, 3[, p])``: a :class:`VectorPosterior`.
@@ -287,14 +271,15 @@ class VectorGP:
         t0 = time.perf_counter()
         W = self.coordinates(vectors, normal)
         single = W.ndim == 1
-        Y = _to_real(W.reshape(self.k, -1)[self.order])
+        Wr = W.reshape(self.k, -1)[self.order]
+        Y = np.stack([Wr.real, Wr.imag], axis=1).reshape(2 * self.k, -1)  # [x_0, y_0, x_1, ...]
         report = {"samples": self.k, "inside_faces": int(len(self.face_samples)), "symmetry": self.symmetry}
         kappa, s2 = self._hyper(Y, report)
         t = time.perf_counter()
         Z, var, conds, s2 = self._posterior(Y, kappa, s2, report)
         report["seconds"] = {"posterior": time.perf_counter() - t, "total": time.perf_counter() - t0}
         std = np.sqrt(np.maximum(var * s2[None, :], 0.0))
-        sigma = np.array([_sigma_of_s2(v, kappa) for v in s2])
+        sigma = np.array([sigma_from_tau(1.0 / math.sqrt(v), kappa, _ALPHA, _DIM) for v in s2])
         scale = np.sqrt(s2)
         report.update({"kappa": kappa, "range": range_from_kappa(kappa, _ALPHA, _DIM), "sigma": sigma.tolist(),
                        "scale": scale.tolist(), "noise": self.noise})
@@ -305,8 +290,10 @@ class VectorGP:
 
         pick = (lambda a: a[:, 0]) if single else (lambda a: a)
         one = (lambda a: float(a[0])) if single else (lambda a: a)
-        return VectorPosterior(pick(Z), pick(std), kappa, report["range"], one(sigma), one(scale), self.noise,
+        post = VectorPosterior(pick(Z), pick(std), kappa, report["range"], one(sigma), one(scale), self.noise,
                                report, self.connection, self.symmetry, draw)
+        self.draws_of = post.draws_of  # the last posterior's draws in space (what VectorReconstructor reads)
+        return post
 
     fit = solve
 
@@ -332,41 +319,24 @@ class VectorGP:
         t = time.perf_counter()
         unit = np.sqrt(np.mean(Y * Y, axis=0))
         unit[~(unit > 0)] = 1.0
-        sparse = (self.rows is None and self.sigma is None and not noisy and self.k > FIT_SAMPLES
-                  and sparse_fit_pays())
         sub = np.arange(self.k)
-        if self.k > FIT_SAMPLES and not sparse:  # a subset in the samples' own order: the same for any numbering
+        if self.k > FIT_SAMPLES:  # a subset in the samples' own order: the same for any numbering
             pick = np.sort(np.random.default_rng(0).choice(self.k, FIT_SAMPLES, replace=False))
             sub = np.sort(np.argsort(self.order)[pick])
-        rows = _pairs(sub)
+        rows = interleave(sub)
         Zd = Y[rows] / unit
-        H = observation_matrix(self.shape.n, self.idx, self.rows)[rows]
+        Hc = self.Hc[sub]
 
-        def covariance(kap):
-            return self.shape.covariance_at(kap, H, cholesky(self.shape.K(kap)))
-
-        likelihood = None
-        if sparse:
-            factors = LogdetFactors()
-
-            def likelihood(kap):
-                return VertexLikelihood(self.shape, kap, self.idx, Zd, 0.0, factors)
-        if self.sigma is None:
-            s2_given = None
-        elif given_k is None:
-            def s2_given(kap):
-                return np.full(p, _s2_of_sigma(self.sigma, kap)) / unit ** 2
-        else:
-            s2_given = np.full(p, _s2_of_sigma(self.sigma, given_k)) / unit ** 2
-        fit = fit_range(covariance, Zd, self.kappa_bounds(), mean=0.0, s2=s2_given,
-                        noise2=np.full(p, self.noise) / unit ** 2 if noisy else None, kappa=given_k,
-                        likelihood=likelihood)
+        def s2_given(kap):  # a given sigma: the scale follows kappa
+            return np.full(p, _s2_of_sigma(self.sigma, kap)) / unit ** 2
+        given = None if self.sigma is None else s2_given if given_k is None else s2_given(given_k)
+        fit = fit_range(lambda kap: _covariance(self.Lc, self.mass, Hc, kap), Zd, self.kappa_bounds(), mean=0.0,
+                        s2=given, noise2=np.full(p, self.noise) / unit ** 2 if noisy else None, kappa=given_k)
         s2 = np.asarray(fit["s2"]) * unit ** 2
         if self.sigma is None and not noisy:
             s2[:] = np.nan  # the closed form on every sample
         report["loglik"] = fit["loglik"] - len(rows) * float(np.log(unit).sum())
         report["fit"] = {"samples": int(len(sub)), "evaluations": fit["evaluations"],
-                         "likelihood": f"sparse factors ({factors.name})" if sparse else "dense covariance",
                          "range_bounds": [range_from_kappa(b, _ALPHA, _DIM) for b in self.kappa_bounds()[::-1]],
                          "seconds": time.perf_counter() - t}
         return fit["kappa"], s2

@@ -48,10 +48,10 @@ from ..linalg.quadratic import QuadraticSolver
 from ..mesh.gradients import gradient_operator
 from ..mesh.laplacian import mass_matrix
 from ..mesh.topology import connected_components
-from ..surface.locate import locate_points
-from ..validate import as_indices, as_mesh
+from ..validate import as_mesh
 from .connection import connection, real_form
-from .fill import NORMAL, tangent_parts
+from .options import NORMAL
+from .places import SamplePlaces, to_real
 
 __all__ = ["KINDS", "METHODS", "FACE_WEIGHT", "HodgeFit", "HodgeResult", "hodge_fit", "field_operator",
            "weak_divergence", "weak_curl"]
@@ -351,40 +351,22 @@ class HodgeFit:
         self._size = sp.csr_array((half.ravel(), (F.ravel(), np.repeat(np.arange(m), 3))), shape=(n, m))
 
     def _place(self, idx, max_distance):
-        """The samples at vertices and inside faces (as :class:`~manifill.vectors.fill.VectorFill`)."""
+        """The samples at vertices and inside faces (:class:`~manifill.vectors.places.SamplePlaces`, in the
+        positions' scaled units)."""
         idx = np.asarray(idx)
         if idx.ndim == 2 and np.issubdtype(idx.dtype, np.floating):
-            where = locate_points(self.V, self.F, idx / self.scale,
-                                  max_distance=None if max_distance is None else max_distance / self.scale)
-            at = where.vertex >= 0
-            self.vertices, self.faces = where.vertex[at], where.faces[~at]
-            self.vertex_samples, self.face_samples = np.flatnonzero(at), np.flatnonzero(~at)
-        else:
-            self.vertices = as_indices(idx, len(self.V), what="idx")
-            self.vertex_samples = np.arange(len(self.vertices))
-            self.face_samples = self.faces = np.zeros(0, dtype=np.int64)
-        self.k = len(self.vertex_samples) + len(self.face_samples)
-        if self.k == 0:
-            raise SampleError("there are no samples; pass at least one vertex or position with its vector")
-        if len(np.unique(self.vertices)) < len(self.vertices):  # from positions (as_indices refuses repeats)
-            raise SampleError("two samples sit at one vertex: merge them (their mean vector) or move one")
+            idx = idx / self.scale
+            max_distance = None if max_distance is None else max_distance / self.scale
+        self.places = p = SamplePlaces(self.V, self.F, idx, max_distance)
+        self.vertices, self.faces, self.k = p.vertices, p.faces, p.k
+        self.vertex_samples, self.face_samples = p.vertex_samples, p.face_samples
 
     def _coordinates(self, vectors, normal):
         """The arrows' tangent parts in their frames, ``(2k[, p])`` interleaved: vertex samples, then faces'."""
         if normal not in NORMAL:
             raise OptionError(f"normal={normal!r}: pass 'refuse' or 'drop'")
-        X = np.asarray(vectors, dtype=np.float64)
-        if X.ndim not in (2, 3) or X.shape[0] != self.k or X.shape[1] != 3:
-            raise SampleError(f"the vectors have shape {X.shape}; pass one 3-vector per sample, ({self.k}, 3)")
-        if not np.all(np.isfinite(X)):
-            raise SampleError("the vectors have NaN or infinite entries; drop those samples")
-        parts = []
-        for at, frames in ((self.vertex_samples, self.connection.frames[self.vertices]),
-                           (self.face_samples, self.connection.face_frames[self.faces])):
-            T = tangent_parts(X[at], frames[:, 2], normal)
-            xy = np.einsum("kc...,kac->ka...", T, frames[:, :2])  # (k, 2[, p])
-            parts.append(xy.reshape((2 * len(at),) + X.shape[2:]))
-        return np.concatenate(parts)
+        W = self.places.coordinates(self.connection, vectors, normal)
+        return to_real(np.concatenate([W[self.vertex_samples], W[self.face_samples]]))
 
     def solve(self, vectors, *, normal="refuse"):
         """The fitted field for arrows ``(k, 3)`` or ``(k, 3, p)``.

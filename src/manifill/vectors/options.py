@@ -5,6 +5,7 @@ combinations no vector method takes, in one line each; the command line takes it
 """
 
 from dataclasses import dataclass, fields, replace
+from typing import Any
 
 from ..errors import OptionError
 from ..validate.constraints import Flag, Kind, Number, OneOf, check_table
@@ -36,7 +37,7 @@ SYMMETRIES = (1, 2, 4)
 NORMAL = ("refuse", "drop")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class VectorOptions:
     """Every option of a vector reconstruction, checked once (``VectorOptions.build(**keywords)``).
 
@@ -62,15 +63,15 @@ class VectorOptions:
         ``method='gp'``: ``range``, ``sigma`` and ``noise``.
     """
 
-    method: object = "biharmonic"
-    symmetry: object = 1
-    fit: object = None
-    bounds: object = True
-    smoothing: object = None
-    normal: object = "refuse"
-    solver: object = "auto"
-    max_distance: object = None
-    gp: object = None
+    method: str = "biharmonic"
+    symmetry: int = 1
+    fit: str | None = None
+    bounds: bool | float = True
+    smoothing: float | str | None = None
+    normal: str = "refuse"
+    solver: str = "auto"
+    max_distance: float | None = None
+    gp: dict | None = None
 
     CONSTRAINTS = {"method": [OneOf(*VECTOR_METHODS)], "symmetry": [OneOf(*SYMMETRIES)],
                    "fit": [None, OneOf(*FITS)], "bounds": [Flag(), Number(lo=0, lo_open=True)],
@@ -80,7 +81,7 @@ class VectorOptions:
                    "gp": [None, Kind((dict,), "a dict of range, sigma and noise")]}
 
     @classmethod
-    def build(cls, options=None, **keywords):
+    def build(cls, options: "VectorOptions | None" = None, **keywords: Any) -> "VectorOptions":
         """The options from ``options`` (or the defaults) with ``keywords`` changed, checked."""
         names = {f.name for f in fields(cls)}
         unknown = sorted(set(keywords) - names)
@@ -92,11 +93,11 @@ class VectorOptions:
         return out
 
     @property
-    def kind(self):
+    def kind(self) -> VectorMethod:
         """The :class:`VectorMethod` of :attr:`method`."""
         return VECTOR_METHODS[self.method]
 
-    def validate(self):
+    def validate(self) -> None:
         """Check every option against :attr:`CONSTRAINTS` and the combinations no method takes."""
         check_table(self, self.CONSTRAINTS)
         if self.fit is not None and (self.symmetry != 1 or not self.kind.energy):

@@ -171,7 +171,7 @@ class VectorReconstructor:
         if hasattr(out, "vertex_vectors"):  # a Hodge fit: the vertex field's numbers for its singularities
             Z = self.engine.connection.to_complex(np.nan_to_num(out.vertex_vectors))
             return out.vertex_vectors, out.face_vectors, Z, dict(out.report)
-        return out.vertex, out.faces, out.complex, dict(out.report)
+        return out.vertex, out.faces, out.complex, {**out.report, "std": out.std}
 
     def _bound(self, vertex, face, X):
         """Scale magnitudes above the bound down to it (in place); what ``report['bounds']`` says."""

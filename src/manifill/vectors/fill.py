@@ -79,6 +79,9 @@ class VectorFill:
         self.places = p = SamplePlaces(V, F, idx, max_distance)
         self.vertices, self.vertex_samples, self.face_samples = p.vertices, p.vertex_samples, p.face_samples
         self.faces, self.bary, self.points, self.k = p.faces, p.bary, p.points, p.k
+        # every path of the solve (complex, real with rows, smoothed, iterative) refuses an unsampled piece alike
+        corners = np.asarray(F)[self.faces].ravel() if F is not None else np.zeros(0, dtype=np.int64)
+        _check_pieces(conn.edges, self._used(), np.concatenate([self.vertices, corners]).astype(np.int64))
         Ac = conn.laplacian(symmetry)
         if ORDERS[method] == 2:
             inv = 1.0 / np.maximum(self.mass, np.finfo(float).tiny)

@@ -144,7 +144,7 @@ class VectorReconstructor:
         Xw = X if self._rows is None else X[self._rows]
         out = self.engine.solve(Xw, normal=self.normal)
         vertex, face, Z, report = self._unpack(out)
-        report["bounds"] = self._bound(vertex, face, X)
+        report["bounds"] = self._bound(vertex, face, Xw)
         sing = self._singularities(Z)
         std = report.pop("std", None)
         draws = getattr(self.engine, "draws_of", None)
@@ -177,7 +177,11 @@ class VectorReconstructor:
         """Scale magnitudes above the bound down to it (in place); what ``report['bounds']`` says."""
         if self.bounds is False:
             return None
-        top = float(np.max(np.linalg.norm(X, axis=1))) if self.bounds is True else float(self.bounds)
+        if self.bounds is True:  # the samples' tangent parts: what the field meets there
+            e = getattr(self.engine, "lines", self.engine)  # a line fill keeps its samples in its power fill
+            top = float(np.max(np.abs(e.places.coordinates(e.connection, X, "drop"))))
+        else:
+            top = float(self.bounds)
         counts = []
         for Y in (vertex, face):
             mag = np.linalg.norm(Y, axis=1, keepdims=True)

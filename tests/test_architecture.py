@@ -23,7 +23,8 @@ MAX_PARAMETERS = 12
 #: Lower layers never import higher ones, at module level or inside a function. ``top`` is the
 #: package's ``__init__.py`` (the flat public API, which re-exports every layer) and ``__main__.py``:
 #: no module imports them.
-LAYERS = ["base", "mesh", "linalg", "surface", "vectors", "solid", "io", "viz", "demo", "adapters", "cli", "cluster", "top"]
+LAYERS = ["base", "mesh", "linalg", "surface", "vectors", "solid", "io", "viz", "demo", "adapters", "cli", "cluster",
+          "top"]
 BASE = {"errors", "tolerances", "validate", "memory", "progress", "results", "report", "version", "deprecation"}
 TOP = {"", "__main__", "console"}
 

@@ -21,11 +21,21 @@ The mask names live here, at the base of the package, so that results and the fi
 formats of :mod:`manifill.io` use one naming scheme.
 """
 
+from __future__ import annotations
+
+import os
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal, overload
 
 import numpy as np
 
 from .errors import OptionError, SampleError
+
+if TYPE_CHECKING:  # the types of the optional objects a result converts to
+    import meshio
+    import pyvista
 
 __all__ = ["SAMPLE_MASK", "CURVE_MASK", "PATCH_LABEL", "BOUNDARY_MASK", "TRUSTED", "RESERVED_NAMES", "Result",
            "field_names", "with_std", "sample_mask", "register_saver"]
@@ -152,9 +162,12 @@ class Result(ABC):
 
     #: Number of leading axes of ``values`` that index points (1 for vertices, 3 for voxels).
     point_ndim = 1
+    #: set by every subclass (a dataclass field each)
+    values: np.ndarray
+    report: dict
 
     @property
-    def field_names(self):
+    def field_names(self) -> list[str]:
         """The fields' names: :attr:`names` when set (e.g. the columns of a samples file), else
         ``value, value2, ...``. Files are written with these unless ``names=`` says otherwise."""
         return field_names(getattr(self, "names", None), self.fields().shape[-1])
@@ -196,7 +209,7 @@ class Result(ABC):
         """The domain in a few words, for the repr (e.g. ``40,962 vertices, 100 samples``)."""
         return f"{int(np.prod(self.fields().shape[:-1])):,} points"
 
-    def save(self, path, names=None):
+    def save(self, path: str | os.PathLike[str], names: Sequence[str] | None = None) -> Path:
         """Write the result to ``path``, in the format its extension names (any that ``manifill`` writes).
 
         Parameters
@@ -213,7 +226,7 @@ class Result(ABC):
         """
         return _SAVER[0](self, path, self.field_names if names is None else names)
 
-    def sample(self, count, *, seed=0):
+    def sample(self, count: int, *, seed: int = 0) -> np.ndarray:
         """Draws of the field from its fitted posterior (``method='gp'``), for propagating the uncertainty onwards.
 
         Each draw is a whole field, consistent with the samples (equal to them where they were observed
@@ -245,7 +258,18 @@ class Result(ABC):
         """The draws of :meth:`sample` (a result with a fitted probability model overrides this)."""
         raise OptionError("this result has no fitted probability model to draw from; use method='gp'")
 
-    def gradient(self, at="vertices", *, return_std=False, draws=100, seed=0):
+    @overload
+    def gradient(self, at: Literal["vertices", "cells"] = ..., *, return_std: Literal[False] = ..., draws: int = ...,
+                 seed: int = ...) -> np.ndarray: ...
+    @overload
+    def gradient(self, at: Literal["vertices", "cells"] = ..., *, return_std: Literal[True], draws: int = ...,
+                 seed: int = ...) -> tuple[np.ndarray, np.ndarray]: ...
+    @overload
+    def gradient(self, at: Literal["vertices", "cells"] = ..., *, return_std: bool, draws: int = ...,
+                 seed: int = ...) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
+
+    def gradient(self, at: Literal["vertices", "cells"] = "vertices", *, return_std: bool = False, draws: int = 100,
+                 seed: int = 0) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """The gradient of every field (of its piecewise-linear interpolant), e.g. a conduction velocity's inverse.
 
         Parameters
@@ -275,7 +299,7 @@ class Result(ABC):
         G = G.reshape(G.shape[:-2] + D.shape[self.point_ndim:] + (3,))
         return g, np.std(G, axis=-2, ddof=1)
 
-    def gradient_data(self, names=None, *, vector=True):
+    def gradient_data(self, names: Sequence[str] | None = None, *, vector: bool = True) -> dict[str, np.ndarray]:
         """The fields' gradients per point, named as files hold them: ``grad_<name>`` (3-vectors) or
         ``grad_<name>_x``, ``_y``, ``_z`` (``vector=False``), and ``grad_<name>_norm``, for each field."""
         names = self.field_names if names is None else field_names(names, self.fields().shape[-1])
@@ -297,7 +321,7 @@ class Result(ABC):
         overrides this)."""
         raise OptionError("this result's domain has no cells to take a gradient on")
 
-    def fields(self):
+    def fields(self) -> np.ndarray:
         """``values`` with a last axis per field, also for a single field.
 
         Returns
@@ -309,7 +333,7 @@ class Result(ABC):
         return X if X.ndim == self.point_ndim + 1 else X[..., None]
 
     @abstractmethod
-    def masks(self):
+    def masks(self) -> dict[str, np.ndarray]:
         """manifill's mask and label arrays of this result, by name (:data:`SAMPLE_MASK`, ...).
 
         Returns
@@ -317,7 +341,7 @@ class Result(ABC):
         dict of str to numpy array
         """
 
-    def point_data(self, names=None):
+    def point_data(self, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """The fields and the masks, named as in every output file.
 
         Parameters
@@ -341,9 +365,9 @@ class Result(ABC):
         return {**data, **self.masks()}
 
     @abstractmethod
-    def to_pyvista(self, names=None):
+    def to_pyvista(self, names: Sequence[str] | None = None) -> pyvista.DataSet:
         """The domain with every field and mask as a pyvista object (needs the ``[viz]`` extra)."""
 
     @abstractmethod
-    def to_meshio(self, names=None):
+    def to_meshio(self, names: Sequence[str] | None = None) -> meshio.Mesh:
         """The domain with every field and mask as a ``meshio.Mesh``."""

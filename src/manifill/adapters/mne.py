@@ -18,13 +18,17 @@ Electrodes are located at their closest point of the scalp (up to ``max_distance
 template head and a subject's cap differ by a centimetre or two). Needs the ``[mne]`` extra (MNE-Python).
 """
 
+from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
+from typing import Any, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, SampleError
 from ..surface.locate import locate_points
+from ..surface.reconstruction import Reconstruction
 from ..surface.reconstructor import Reconstructor
 
 try:
@@ -38,8 +42,12 @@ __all__ = ["head_surface", "electrodes", "ScalpMap", "interpolate_bads", "interp
 #: How far (metres) an electrode may sit from the scalp surface and still be located on it.
 MAX_DISTANCE = 0.03
 
+#: What ``surface=`` takes (:func:`head_surface`), and the recordings the functions take and give.
+_Scalp: TypeAlias = "str | Path | dict | tuple[ArrayLike, ArrayLike] | None"
+_Recording: TypeAlias = "mne.io.BaseRaw | mne.BaseEpochs | mne.Evoked"
 
-def head_surface(surface=None):
+
+def head_surface(surface: _Scalp = None) -> tuple[np.ndarray, np.ndarray]:
     """``(V, F)`` of a scalp in MNE's head coordinates (metres).
 
     Parameters
@@ -86,7 +94,7 @@ def _surface_of(surface):
     return V, np.asarray(surface["tris"], dtype=np.int64)
 
 
-def electrodes(info, picks=None):
+def electrodes(info: mne.Info, picks: Sequence[str] | None = None) -> tuple[list[str], np.ndarray]:
     """``(names, positions (k, 3))`` of the EEG channels of ``info`` (all, or ``picks`` by name), head frame.
 
     Parameters
@@ -153,8 +161,9 @@ class ScalpMap:
         The target channels from the good ones.
     """
 
-    def __init__(self, info, good, targets=(), *, surface=None, method="biharmonic", max_distance=MAX_DISTANCE,
-                 **options):
+    def __init__(self, info: mne.Info, good: Sequence[str],
+                 targets: Sequence[str] | ArrayLike | Mapping[str, ArrayLike] = (), *, surface: _Scalp = None,
+                 method: str = "biharmonic", max_distance: float = MAX_DISTANCE, **options: Any) -> None:
         self.V, self.F = head_surface(surface)
         self.good, (self.targets, labels) = list(good), _targets(targets)
         _, P = electrodes(info, self.good)
@@ -178,7 +187,7 @@ class ScalpMap:
             loc = _on_scalp(self.V, self.F, T, self.targets if labels is None else labels, max_distance)
             self.B = np.einsum("tc,tck->tk", loc.bary, self.W[loc.corners])
 
-    def apply(self, data):
+    def apply(self, data: ArrayLike) -> np.ndarray:
         """``(targets, ...)`` values of the target channels from the good channels' ``(good, ...)`` data."""
         X = np.asarray(data, dtype=np.float64)
         return np.tensordot(self.B, X, axes=(1, 0))
@@ -235,7 +244,7 @@ def _scalp_map(info, good, bads, surface, method, options):
     return _MAPS[key]
 
 
-def forget_maps():
+def forget_maps() -> None:
     """Drop the scalp maps kept between calls (the next :func:`interpolate_bads` builds its map again)."""
     _MAPS.clear()
 
@@ -247,7 +256,8 @@ def _eeg_bads(inst):
     return bads, good
 
 
-def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic", **options):
+def interpolate_bads(inst: _Recording, *, reset_bads: bool = True, surface: _Scalp = None, method: str = "biharmonic",
+                     **options: Any) -> _Recording:
     """A copy of ``inst`` (``Raw``, ``Epochs`` or ``Evoked``) with its bad EEG channels filled.
 
     The map is built once from the good channels' positions (:class:`ScalpMap`) and applied to every sample of
@@ -292,7 +302,8 @@ def interpolate_bads(inst, *, reset_bads=True, surface=None, method="biharmonic"
     return out
 
 
-def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **options):
+def interpolate_to(inst: _Recording, sensors: mne.channels.DigMontage, *, surface: _Scalp = None,
+                   method: str = "biharmonic", **options: Any) -> _Recording:
     """A new instance (``Raw``, ``Epochs`` or ``Evoked``) whose EEG channels are those of the montage ``sensors``.
 
     Their values come from the good EEG channels of ``inst`` through one :class:`ScalpMap` (kept for the next call
@@ -366,7 +377,8 @@ def interpolate_to(inst, sensors, *, surface=None, method="biharmonic", **option
     return out
 
 
-def to_surface(inst, *, surface=None, method="biharmonic", **options):
+def to_surface(inst: _Recording, *, surface: _Scalp = None, method: str = "biharmonic",
+               **options: Any) -> Reconstruction:
     """The EEG field over the whole scalp: a :class:`manifill.Reconstruction` of ``(n_vertices, n_times)`` values
     (an ``Epochs``: its average), from the good channels.
 

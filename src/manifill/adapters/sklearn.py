@@ -11,10 +11,16 @@ constructor parameter, so ``get_params``/``set_params``, ``clone``, ``cross_val_
 Needs the ``[sklearn]`` extra (scikit-learn).
 """
 
+import os
+from collections.abc import Sequence
+from typing import Literal, TypeVar, overload
+
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from ..errors import OptionError, SampleError
+from ..linalg.gp import GPOptions
 from ..surface.reconstructor import Reconstructor
 
 try:
@@ -24,6 +30,8 @@ except ImportError:  # the extra, named when used
     raise ImportError("manifill.adapters.sklearn needs scikit-learn: pip install 'manifill[sklearn]'") from None
 
 __all__ = ["SurfaceRegressor"]
+
+_Regressor = TypeVar("_Regressor", bound="SurfaceRegressor")
 
 
 class SurfaceRegressor(RegressorMixin, BaseEstimator):
@@ -57,8 +65,10 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
     1.0
     """
 
-    def __init__(self, V=None, F=None, *, method=None, smoothing=None, bounds=None, weights="cotan", gp=None,
-                 uncertainty=None, neighbours=None, barriers=None):
+    def __init__(self, V: ArrayLike | None = None, F: ArrayLike | None = None, *, method: str | None = None,
+                 smoothing: float | str | None = None, bounds: str | tuple | None = None, weights: str = "cotan",
+                 gp: GPOptions | dict | None = None, uncertainty: bool | None = None, neighbours: int | None = None,
+                 barriers: Sequence[ArrayLike] | ArrayLike | str | os.PathLike[str] | None = None) -> None:
         self.V = V
         self.F = F
         self.method = method
@@ -96,7 +106,7 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
             return A[:, 0].astype(np.int64)
         return A
 
-    def fit(self, X, y):
+    def fit(self: _Regressor, X: ArrayLike, y: ArrayLike) -> _Regressor:
         """Reconstruct the field from samples at ``X`` (vertex indices or positions) with values ``y``."""
         where = self._where(X, fitting=True)
         vals = np.asarray(y, dtype=np.float64)
@@ -104,17 +114,24 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
             raise SampleError(f"y has shape {vals.shape} for {len(where)} samples; pass (k,) or (k, p) values")
         options = {key: getattr(self, key) for key in ("method", "smoothing", "bounds", "weights", "gp",
                                                          "uncertainty", "neighbours", "barriers")}
-        try:
-            self.result_ = Reconstructor(self.V, self.F, where, **options, duplicates="mean").apply(vals)
+        try:  # (self.V is not None: _where refused that)
+            self.result_ = Reconstructor(self.V, self.F, where, **options, duplicates="mean").apply(vals)  # type: ignore[arg-type]
         except SampleError as exc:  # more positions in a triangle than its corners hold apart: nearest vertices
             if where.ndim == 1 or "not independent" not in str(exc):
                 raise
             near = cKDTree(np.asarray(self.V, dtype=np.float64)).query(where)[1]
-            self.result_ = Reconstructor(self.V, self.F, near, **options, duplicates="mean").apply(vals)
+            self.result_ = Reconstructor(self.V, self.F, near, **options, duplicates="mean").apply(vals)  # type: ignore[arg-type]
         self.n_features_in_ = 1 if where.ndim == 1 else 3
         return self
 
-    def predict(self, X, return_std=False):
+    @overload
+    def predict(self, X: ArrayLike, return_std: Literal[False] = ...) -> np.ndarray: ...
+    @overload
+    def predict(self, X: ArrayLike, return_std: Literal[True]) -> tuple[np.ndarray, np.ndarray]: ...
+    @overload
+    def predict(self, X: ArrayLike, return_std: bool) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
+
+    def predict(self, X: ArrayLike, return_std: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """The field at ``X`` (vertex indices or positions): ``(k,)`` or ``(k, p)``, and its std with ``return_std``."""
         check_is_fitted(self, "result_")
         where = self._where(X, fitting=False)
@@ -126,5 +143,6 @@ class SurfaceRegressor(RegressorMixin, BaseEstimator):
             if bad.size:
                 raise SampleError(f"X holds vertex {int(bad[0])}, outside 0..{len(r.values) - 1}; pass vertices of "
                                   f"the surface")
-            return (r.values[where], r.std[where]) if return_std else r.values[where]
+            # (r.std is not None with return_std: refused above)
+            return (r.values[where], r.std[where]) if return_std else r.values[where]  # type: ignore[index]
         return r.at(where, return_std=return_std)

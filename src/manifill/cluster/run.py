@@ -14,14 +14,18 @@ The summary CSV is rewritten, atomically, as jobs end (at most once a second, an
 last): a batch stopped midway keeps the rows of the jobs that ended before its last write.
 """
 
+from __future__ import annotations
+
 import contextlib
 import csv
 import io
 import os
 import threading
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ..cli.main import main
 from ..errors import ManifillError, OptionError
@@ -36,7 +40,10 @@ from ..io.series import series_only
 from ..io.stream import chunk_size
 from ..memory import LIMIT_ENV, human
 from .hashing import job_hash
-from .manifest import jobs_from
+from .manifest import Job, jobs_from
+
+if TYPE_CHECKING:  # the [batch] extra's client, a type here only
+    import distributed
 
 __all__ = ["batch", "BatchResult", "need_distributed", "run_job", "job_memory", "read_summary",
            "SUMMARY_COLUMNS", "SCHEDULER_ENV", "SUMMARY_SECONDS", "BYTES_PER_VERTEX", "BYTES_PER_VALUE", "WORKER_BYTES"]
@@ -90,19 +97,22 @@ class BatchResult:
     workers: int
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         """Whether every job is ``done`` or ``skipped``."""
         return all(r["status"] in ("done", "skipped") for r in self.rows)
 
-    def counts(self):
+    def counts(self) -> dict[str, int]:
         """Jobs by status, e.g. ``{'done': 38, 'failed': 1, 'skipped': 1}``."""
-        out = {}
+        out: dict[str, int] = {}
         for r in self.rows:
             out[r["status"]] = out.get(r["status"], 0) + 1
         return out
 
 
-def batch(jobs, *, scheduler=None, workers=None, memory_limit=None, summary=None, force=False, progress=None):
+def batch(jobs: str | os.PathLike[str] | Sequence[Mapping[str, Any] | Job], *,
+          scheduler: str | distributed.Client | None = None, workers: int | None = None,
+          memory_limit: str | int | None = None, summary: str | os.PathLike[str] | None = None, force: bool = False,
+          progress: Callable[[dict[str, Any], int, int], object] | None = None) -> BatchResult:
     """Run a batch of ``manifill reconstruct`` / ``manifill volume`` jobs on a Dask cluster.
 
     Parameters

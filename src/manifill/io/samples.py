@@ -23,10 +23,12 @@ Values are written as CSV (``vertex,name...``) or NPY. Damaged files end in one
 damaged ZIP member is caught before anything is allocated.
 """
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError, ReadError, SampleError
 from ..surface.options import PointOptions
@@ -48,8 +50,9 @@ def _sample_format(path):
     return fmt or lookup("samples", path, also=" (or a FreeSurfer file such as lh.thickness)")
 
 
-def read_samples(path, V, *, duplicates="error", max_distance=None, vertex_numbering=None, snap_to=None,
-                 keep_points=False):
+def read_samples(path: str | os.PathLike[str], V: np.ndarray, *, duplicates: str = "error",
+                 max_distance: float | None = None, vertex_numbering: str | None = None,
+                 snap_to: ArrayLike | None = None, keep_points: bool = False) -> Samples:
     """Read samples, snapping positions to vertices.
 
     Parameters

@@ -11,11 +11,14 @@ Writes are atomic (:func:`manifill.io.files.atomic_path`).
 """
 
 import base64  # noqa: F401  (manifill.io.solids.base64 is the module the VTI writer encodes with)
+import os
 import re
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ManifillError, ReadError, WriteError
 from ..validate import as_tets
@@ -92,7 +95,7 @@ TET_FORMATS = FormatView("tets")
 GRID_FORMATS = FormatView("grid")
 
 
-def read_tets(path):
+def read_tets(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     """Read a tetrahedral mesh.
 
     Parameters
@@ -209,7 +212,8 @@ def has_tets(path):
     return True
 
 
-def write_tets(path, V, T, point_data=None):
+def write_tets(path: str | os.PathLike[str], V: ArrayLike, T: ArrayLike,
+               point_data: Mapping[str, ArrayLike] | None = None) -> dict[str, str]:
     """Write a tetrahedral mesh with named per-vertex fields, atomically.
 
     Parameters
@@ -239,7 +243,8 @@ def write_tets(path, V, T, point_data=None):
     return write_cells(path, V, T, point_data)
 
 
-def write_vti(path, fields, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
+def write_vti(path: str | os.PathLike[str], fields: Mapping[str, ArrayLike], *, spacing: ArrayLike = (1.0, 1.0, 1.0),
+              origin: ArrayLike = (0.0, 0.0, 0.0)) -> None:
     """Write voxel fields as VTK ImageData (``.vti``) or, for one field, as ``.npy``; atomically.
 
     Parameters
@@ -267,7 +272,7 @@ def write_vti(path, fields, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
     lookup("grid", path, writing=True).write(path, fields, spacing, origin)
 
 
-def read_vti(path):
+def read_vti(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Read point data of VTK ImageData (ASCII, binary or appended, compressed or not).
 
     Parameters

@@ -11,12 +11,18 @@ is said by a :class:`SeriesResult`. ``manifill reconstruct MESH SAMPLES -o OUT.x
 function.
 """
 
+from __future__ import annotations
+
+import os
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, SampleError
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, sample_mask
@@ -25,6 +31,9 @@ from ..surface.reconstructor import Reconstructor
 from .distributed import ordered_map
 from .formats import find_format
 from .series_write import SeriesWriter
+
+if TYPE_CHECKING:  # the [batch] extra's client, a type here only
+    import distributed
 
 __all__ = ["CHUNK_BYTES", "MAP_BYTES", "MAP_STEPS_PER_SAMPLE", "SeriesResult", "apply_chunk", "chunk_size",
            "dense_map", "reconstruct_series"]
@@ -101,8 +110,10 @@ class SeriesResult:
         return getattr(self, key)
 
 
-def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk=None, progress=None, client=None,
-                       **options):
+def reconstruct_series(V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, vals: ArrayLike, path: str | os.PathLike[str],
+                       *, times: ArrayLike | None = None, name: str = "value", chunk: int | None = None,
+                       progress: Callable[[str], object] | None = None, client: distributed.Client | None = None,
+                       **options: Any) -> SeriesResult:
     """Reconstruct ``T`` time steps and write them as a series file, one chunk of steps at a time.
 
     Parameters
@@ -217,7 +228,7 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
                                       static=static if getattr(find_format("series", path), "static", True) else None)
             writer.write(values, times[s:s + step])
             seconds["write"] += time.perf_counter() - t
-        writer.close()
+        writer.close()  # type: ignore[union-attr]  # made at the first chunk, and there is one
     except BaseException:
         if writer is not None:
             writer.abort()
@@ -225,7 +236,8 @@ def reconstruct_series(V, F, idx, vals, path, *, times=None, name="value", chunk
     finally:
         results.close()  # a Dask run cancels the chunks not yet done
     seconds["total"] = time.perf_counter() - t0
-    return SeriesResult(Path(path), steps=T, chunk=step, chunks=len(starts), seconds=seconds, report=report)
+    return SeriesResult(Path(path), steps=T, chunk=step, chunks=len(starts), seconds=seconds,
+                        report=report)  # type: ignore[arg-type]  # the last chunk's
 
 
 def apply_chunk(rec, block, first):

@@ -49,9 +49,11 @@ solves them, with its own Dirichlet solves through this class.
 """
 
 import time
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, SampleError, SolveError
 from ..validate import as_indices, as_laplacian, as_values, check_option
@@ -63,6 +65,8 @@ __all__ = ["ON_EMPTY", "QuadraticSolver", "min_quad_with_fixed"]
 
 #: What to do with a component without a fixed index.
 ON_EMPTY = ("error", "nan")
+
+_Solver = TypeVar("_Solver", bound="QuadraticSolver")
 
 
 class QuadraticSolver:
@@ -158,8 +162,10 @@ class QuadraticSolver:
     [4.0, 1.0]
     """
 
-    def __init__(self, A, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel", tol=None,
-                 maxiter=None, symmetric_pattern=False, Aeq=None, what="A", factoriser=None, candidates=None):
+    def __init__(self, A: sp.sparray | sp.spmatrix, idx: ArrayLike, *, solver: str = "auto", on_empty: str = "error",
+                 iteration: str = "gauss-seidel", tol: float | None = None, maxiter: int | None = None,
+                 symmetric_pattern: bool = False, Aeq: sp.sparray | sp.spmatrix | None = None, what: str = "A",
+                 factoriser: str | None = None, candidates: np.ndarray | None = None) -> None:
         check_option("on_empty", on_empty, ON_EMPTY + ("solve",))
         A = as_laplacian(A, what=what)
         if Aeq is not None:
@@ -173,7 +179,7 @@ class QuadraticSolver:
             idx = as_indices(idx, A.shape[0], what="idx")
         self._reduce(A, idx, Aeq=Aeq, **self._options)
 
-    def fixing(self, extra):
+    def fixing(self: _Solver, extra: ArrayLike) -> _Solver:
         """The same problem with the indices ``extra`` fixed too (after ``idx``), reduced and set up anew.
 
         Parameters
@@ -202,7 +208,7 @@ class QuadraticSolver:
         return sub
 
     @property
-    def backend(self):
+    def backend(self) -> Any:
         """The linear solver of the reduced system (:mod:`manifill.linalg.backends`), e.g. to precondition
         a restriction of it (:mod:`manifill.linalg.active_set` reuses it across the active set's solves)."""
         return self._solver
@@ -268,7 +274,9 @@ class QuadraticSolver:
             "seconds": {"partition": t3 - t2, "setup": self._solver.setup_seconds},
         }
 
-    def solve(self, vals, *, linear=None, x0=None, beq=None, lo=None, hi=None, bound_iterations=MAX_ITERATIONS):
+    def solve(self, vals: ArrayLike, *, linear: ArrayLike | None = None, x0: ArrayLike | None = None,
+              beq: ArrayLike | None = None, lo: ArrayLike | None = None, hi: ArrayLike | None = None,
+              bound_iterations: int = MAX_ITERATIONS) -> np.ndarray:
         """The minimiser for the given fixed values (and bounds).
 
         Parameters
@@ -379,7 +387,8 @@ class QuadraticSolver:
         return a
 
 
-def min_quad_with_fixed(A, idx, vals, *, linear=None, **kwargs):
+def min_quad_with_fixed(A: sp.sparray | sp.spmatrix, idx: ArrayLike, vals: ArrayLike, *,
+                        linear: ArrayLike | None = None, **kwargs: Any) -> np.ndarray:
     """Minimise ``1/2 x^T A x + c^T x`` with ``x[idx] = vals`` (one-shot).
 
     Parameters

@@ -2,6 +2,7 @@
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 from scipy.sparse import csgraph
 
 from ..validate import as_mesh, duplicate_vertex_pairs, zero_area_faces
@@ -9,7 +10,7 @@ from ..validate import as_mesh, duplicate_vertex_pairs, zero_area_faces
 __all__ = ["clean_mesh"]
 
 
-def clean_mesh(V, F, *, tol=None):
+def clean_mesh(V: ArrayLike, F: ArrayLike, *, tol: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weld coinciding vertices, drop unused vertices and zero-area faces.
 
     Parameters

@@ -32,9 +32,11 @@ Which weights when
 """
 
 import warnings
+from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError
 from ..tolerances import TOL
@@ -94,7 +96,8 @@ def _robust(V, F, mollify):
     return L
 
 
-def laplacian(V, F, *, weights="cotan"):
+def laplacian(V: ArrayLike, F: ArrayLike, *,
+              weights: Literal["uniform", "cotan", "intrinsic", "robust"] = "cotan") -> sp.csr_array:
     """Symmetric positive semi-definite Laplacian ``L = D - W`` of a triangle mesh.
 
     Parameters
@@ -153,7 +156,8 @@ def assemble_laplacian(V, F, weights, index=None):
     return _assemble(_normalised(V), F, n, weights, index)
 
 
-def mass_matrix(V, F, *, mass=None, kind=None):
+def mass_matrix(V: ArrayLike, F: ArrayLike, *, mass: Literal["barycentric", "voronoi"] | None = None,
+                kind: Literal["barycentric", "voronoi"] | None = None) -> sp.csr_array:
     """The lumped (diagonal) mass matrix ``M`` of a triangle or tetrahedral mesh: the area or volume of each vertex.
 
     With the stiffness matrix :func:`laplacian` (``weights='cotan'``) it makes the

@@ -6,8 +6,11 @@ themselves are :mod:`manifill.mesh.edges`; repairing a mesh is
 :mod:`manifill.mesh.clean`.
 """
 
+from typing import Any
+
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 from scipy.sparse import csgraph
 
 from ..validate import as_mesh, bbox_diagonal, duplicate_vertex_pairs, zero_area_faces
@@ -140,7 +143,7 @@ def boundary_loops(F):
     return loops
 
 
-def mesh_info(V, F):
+def mesh_info(V: ArrayLike, F: ArrayLike) -> dict[str, Any]:
     """Counts, components, boundary loops, non-manifold edges and genus of a mesh.
 
     Parameters

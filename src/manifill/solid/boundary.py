@@ -14,6 +14,7 @@ A tetrahedral solid's D is its boundary triangles
 """
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from ..errors import SampleError
@@ -57,7 +58,8 @@ def boundary_voxels(mask, connectivity=6):
     return mask & ~inner
 
 
-def digital_surface(mask, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6):
+def digital_surface(mask: ArrayLike, *, spacing: ArrayLike = (1.0, 1.0, 1.0), origin: ArrayLike = (0.0, 0.0, 0.0),
+                    connectivity: int = 6) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The boundary voxels of a mask as a surface graph with positions and normals.
 
     Parameters

@@ -19,6 +19,7 @@ killed by the system.
 import time
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SolveError
 from ..linalg.backends import SOLVERS
@@ -174,8 +175,9 @@ class VoxelFill:
     [0.0, 1.0, 2.0, 3.0, 4.0]
     """
 
-    def __init__(self, mask, voxels, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
-                 tol=None, maxiter=None):
+    def __init__(self, mask: ArrayLike, voxels: ArrayLike, *, spacing: ArrayLike = (1.0, 1.0, 1.0),
+                 connectivity: int = 6, solver: str = "auto", on_empty: str = "error", tol: float | None = None,
+                 maxiter: int | None = None) -> None:
         t0 = time.perf_counter()
         check_option("solver", solver, FILL_SOLVERS)
         check_option("on_empty", on_empty, ON_EMPTY)
@@ -246,7 +248,7 @@ class VoxelFill:
                                        symmetric_pattern=True, what="the voxel Laplacian")
             self._solid = solid
 
-    def solve(self, vals):
+    def solve(self, vals: ArrayLike) -> np.ndarray:
         """The harmonic fill for the given values at the fixed voxels.
 
         Parameters
@@ -305,8 +307,9 @@ class VoxelFill:
         return out[..., 0] if squeeze else out
 
 
-def harmonic_fill(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), connectivity=6, solver="auto", on_empty="error",
-                  tol=None, maxiter=None):
+def harmonic_fill(mask: ArrayLike, voxels: ArrayLike, vals: ArrayLike, *, spacing: ArrayLike = (1.0, 1.0, 1.0),
+                  connectivity: int = 6, solver: str = "auto", on_empty: str = "error", tol: float | None = None,
+                  maxiter: int | None = None) -> np.ndarray:
     """Fill a voxel solid harmonically from fixed voxels (the paper's Step 8).
 
     Parameters
@@ -345,7 +348,9 @@ def harmonic_fill(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), connectivity=6
                      tol=tol, maxiter=maxiter).solve(vals)
 
 
-def tet_fill(V, T, idx, vals, *, weights="cotan", solver="auto", on_empty="error", tol=None, maxiter=None):
+def tet_fill(V: ArrayLike, T: ArrayLike, idx: ArrayLike, vals: ArrayLike, *, weights: str = "cotan",
+             solver: str = "auto", on_empty: str = "error", tol: float | None = None,
+             maxiter: int | None = None) -> np.ndarray:
     """Fill a tetrahedral solid harmonically from fixed vertices.
 
     Parameters

@@ -22,11 +22,12 @@ does on a surface; there is no surface pass and no harmonic fill.
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..errors import OptionError
-from ..linalg.gp import as_gp_options, gp_condition
+from ..linalg.gp import GPOptions, as_gp_options, gp_condition
 from ..linalg.gpdraws import posterior_draws
 from ..linalg.spde import MaternShape
 from ..mesh.roots import edge_root
@@ -114,7 +115,9 @@ class _Draws:
         return D[..., 0, :] if self.squeeze else D
 
 
-def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="auto", duplicates="error"):
+def gp_tets(V: ArrayLike, T: ArrayLike, idx: ArrayLike, vals: ArrayLike, *, gp: GPOptions | dict | None = None,
+            trust: float | None = None, untrusted: str = "mask", solver: str = "auto",
+            duplicates: str = "error") -> VolumeReconstruction:
     """``method='gp'`` on a tetrahedral mesh: the posterior mean and std at every vertex.
 
     Parameters
@@ -168,8 +171,10 @@ def gp_tets(V, T, idx, vals, *, gp=None, trust=None, untrusted="mask", solver="a
                                 drawer=drawer)
 
 
-def gp_voxels(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6, gp=None,
-              trust=None, untrusted="mask", solver="auto", duplicates="error"):
+def gp_voxels(mask: ArrayLike, voxels: ArrayLike, vals: ArrayLike, *, spacing: ArrayLike = (1.0, 1.0, 1.0),
+              origin: ArrayLike = (0.0, 0.0, 0.0), connectivity: int = 6, gp: GPOptions | dict | None = None,
+              trust: float | None = None, untrusted: str = "mask", solver: str = "auto",
+              duplicates: str = "error") -> VolumeReconstruction:
     """``method='gp'`` on a voxel mask: the posterior mean and std at every voxel of the solid.
 
     Parameters

@@ -31,8 +31,10 @@ fit in memory (:mod:`manifill.solid.estimates`).
 """
 
 import time
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, SampleError
 from ..memory import check_fits
@@ -113,8 +115,10 @@ def _refuse_own(options):
         raise OptionError(f"no option {own[0]!r} (it is the function's own); see help(manifill.reconstruct)")
 
 
-def reconstruct_volume(V, F, idx, vals, *, form="voxels", resolution=128, connectivity=6, max_volume=None,
-                       fill_solver="auto", fill_weights="cotan", allow_open=False, **options):
+def reconstruct_volume(V: ArrayLike, F: ArrayLike, idx: ArrayLike, vals: ArrayLike, *, form: str = "voxels",
+                       resolution: int = 128, connectivity: int = 6, max_volume: float | None = None,
+                       fill_solver: str = "auto", fill_weights: str = "cotan", allow_open: bool = False,
+                       **options: Any) -> VolumeReconstruction:
     """Reconstruct a field inside a solid from samples on its closed boundary surface (Steps 1-8).
 
     Parameters
@@ -247,7 +251,8 @@ def _fill_tetrahedralised(V, F, surf, max_volume, fill_weights, fill_solver, pro
     return VolumeReconstruction(values, "tets", surf, TV=TV, TT=TT, report=report, samples=surf.idx)
 
 
-def reconstruct_volume_tets(V, T, idx, vals, *, fill_solver="auto", fill_weights="cotan", **options):
+def reconstruct_volume_tets(V: ArrayLike, T: ArrayLike, idx: ArrayLike, vals: ArrayLike, *, fill_solver: str = "auto",
+                            fill_weights: str = "cotan", **options: Any) -> VolumeReconstruction:
     """Steps 1-8 on a tetrahedral mesh: reconstruct on its boundary triangles, fill the tets.
 
     Parameters
@@ -327,8 +332,9 @@ def reconstruct_volume_tets(V, T, idx, vals, *, fill_solver="auto", fill_weights
                                         "seconds": seconds}, samples=idx_arr)
 
 
-def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), connectivity=6,
-                            fill_solver="auto", **options):
+def reconstruct_volume_mask(mask: ArrayLike, voxels: ArrayLike, vals: ArrayLike, *,
+                            spacing: ArrayLike = (1.0, 1.0, 1.0), origin: ArrayLike = (0.0, 0.0, 0.0),
+                            connectivity: int = 6, fill_solver: str = "auto", **options: Any) -> VolumeReconstruction:
     """Steps 1-8 on a voxel mask: reconstruct on its digital boundary surface, fill the inside.
 
     Parameters
@@ -343,8 +349,7 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     connectivity : {6, 18, 26}, optional
         Neighbours of the fill (and which voxels are boundary).
     fill_solver : {'auto', 'multigrid', 'amg', 'direct'}, optional
-        Solver of the inside, as :func:`reconstruct_volume` with ``form='voxels'``:
-        ``auto`` is ``multigrid``.
+        Solver of the inside, as :func:`reconstruct_volume` with ``form='voxels'``: ``auto`` is ``multigrid``.
     **options
         Steps 1-6 on the digital surface, exactly as :func:`manifill.reconstruct`
         takes them (``method``, ``partition``, ``solver``, ``curve_values``,
@@ -359,8 +364,7 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     Returns
     -------
     VolumeReconstruction
-        ``surface_voxels`` lists the voxel of each surface vertex, ``samples``
-        the sampled voxels.
+        ``surface_voxels`` lists the voxel of each surface vertex, ``samples`` the sampled voxels.
 
     Raises
     ------
@@ -376,8 +380,7 @@ def reconstruct_volume_mask(mask, voxels, vals, *, spacing=(1.0, 1.0, 1.0), orig
     OptionError or TypeError
         A keyword :func:`manifill.reconstruct` does not take, refused as it refuses it.
     ResourceError
-        The fill is predicted not to fit in the memory available; checked
-        before Steps 1-6.
+        The fill is predicted not to fit in the memory available; checked before Steps 1-6.
 
     Examples
     --------

@@ -17,6 +17,7 @@ import sys
 import tempfile
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError, OptionError, ResourceError
 from ..memory import check_fits
@@ -196,7 +197,8 @@ def tet_words(max_volume, tets):
     return f"tetrahedralising with {bound} ({count} tets)"
 
 
-def tetrahedralize(V, F, *, max_volume=None, quality=True):
+def tetrahedralize(V: ArrayLike, F: ArrayLike, *, max_volume: float | None = None,
+                   quality: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """A tetrahedral mesh of the solid bounded by a closed triangle mesh (tetgen).
 
     Parameters

@@ -5,7 +5,11 @@ and by the solid's gp (:mod:`manifill.solid.gp`); its own module, so that neithe
 those imports the other.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +18,10 @@ from ..mesh.gradients import cell_gradients, grid_gradients, tet_gradient_operat
 from ..mesh.objects import to_meshio, to_pyvista
 from ..results import BOUNDARY_MASK, SAMPLE_MASK, TRUSTED, Result, with_std
 from .tets import boundary_vertices
+
+if TYPE_CHECKING:  # the types of the optional objects a result converts to
+    import meshio
+    import pyvista
 
 __all__ = ["VolumeReconstruction"]
 
@@ -103,11 +111,11 @@ class VolumeReconstruction(Result):
         return f"{len(self.TV):,} vertices, {len(self.TT):,} tetrahedra"
 
     @property
-    def point_ndim(self):
+    def point_ndim(self) -> int:  # type: ignore[override]  # the base's class attribute, by form here
         """Leading axes of ``values`` that index points: 3 for voxels, 1 for tet vertices."""
         return 3 if self.form == "voxels" else 1
 
-    def masks(self):
+    def masks(self) -> dict[str, np.ndarray]:
         """The boundary mask D, and for tets the sample mask, by name.
 
         Returns
@@ -119,20 +127,21 @@ class VolumeReconstruction(Result):
         """
         extra = {} if self.trusted is None else {TRUSTED: self.trusted}
         if self.form == "voxels":
-            return {BOUNDARY_MASK: self.fixed, **extra}
-        boundary = np.zeros(len(self.TV), dtype=bool)
+            return {BOUNDARY_MASK: self.fixed, **extra}  # type: ignore[dict-item]  # voxels: fixed is set
+        n = len(self.TV)  # type: ignore[arg-type]  # tets: TV is set
+        boundary = np.zeros(n, dtype=bool)
         boundary[boundary_vertices(self.TT)] = True
-        sample = np.zeros(len(self.TV), dtype=bool)
+        sample = np.zeros(n, dtype=bool)
         if self.samples is not None:
             sample[self.samples] = True
         return {BOUNDARY_MASK: boundary, SAMPLE_MASK: sample, **extra}
 
-    def point_data(self, names=None):
+    def point_data(self, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """The fields, their std (``<field>_std``, with ``method='gp'``), then :meth:`masks`."""
         names = self.field_names if names is None else names
         return with_std(super().point_data(names), self.std, names, self.point_ndim)
 
-    def to_pyvista(self, names=None):
+    def to_pyvista(self, names: Sequence[str] | None = None) -> pyvista.ImageData | pyvista.UnstructuredGrid:
         """The solid as a ``pyvista.ImageData`` (voxels; NaN outside) or ``UnstructuredGrid`` (tets).
 
         Needs the ``[viz]`` extra. Voxel ``(i, j, k)`` is the point at ``origin + (i, j, k) * spacing``.
@@ -144,14 +153,14 @@ class VolumeReconstruction(Result):
             import pyvista as pv
         except ImportError:
             raise ImportError("converting to pyvista needs pyvista: pip install 'manifill[viz]'") from None
-        img = pv.ImageData(dimensions=self.mask.shape, spacing=tuple(self.spacing), origin=tuple(self.origin))
+        img = pv.ImageData(dimensions=self.mask.shape, spacing=tuple(self.spacing), origin=tuple(self.origin))  # type: ignore[union-attr, arg-type]
         for name, arr in data.items():
             arr = np.asarray(arr)
             arr = arr.astype(np.uint8) if arr.dtype == bool else arr
             img.point_data[name] = arr.reshape(-1, order="F")  # x fastest, as VTK orders points
         return img
 
-    def to_meshio(self, names=None):
+    def to_meshio(self, names: Sequence[str] | None = None) -> meshio.Mesh:
         """The tetrahedral solid as a ``meshio.Mesh`` (voxels: use :meth:`to_pyvista` or ``write_vti``)."""
         if self.form != "tets":
             raise OptionError("a voxel result has no meshio form; use to_pyvista() or manifill.io.solids.write_vti")

@@ -12,6 +12,7 @@ import math
 import numbers
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from ..errors import MeshError, OptionError, ResourceError, SampleError
@@ -261,7 +262,8 @@ def _exact_shift(V, Q):
     return np.where(ok, c, 0.0)
 
 
-def voxelize(V, F, *, resolution=128, allow_open=False, padding=1):
+def voxelize(V: ArrayLike, F: ArrayLike, *, resolution: int = 128, allow_open: bool = False,
+             padding: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Voxelise the solid bounded by a closed triangle mesh.
 
     A voxel is inside when the generalised winding number of the surface at its

@@ -28,6 +28,7 @@ table. For other folds or candidates, call :func:`cross_validate` and pass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError, SampleError
 from ..validate import as_indices, as_mesh, as_points, as_samples, as_values, check_option, is_mesh_object
@@ -90,8 +91,8 @@ def candidates_of(methods, digital=False):
     return out
 
 
-def cross_validate(V, F, idx, vals, *, methods: list | None = None, folds: int = 10, seed: int = 0,
-                   **options: Any) -> CrossValidation:
+def cross_validate(V: ArrayLike | Surface, F: ArrayLike | None, idx: ArrayLike, vals: ArrayLike, *,
+                   methods: list | None = None, folds: int = 10, seed: int = 0, **options: Any) -> CrossValidation:
     """Each method's K-fold (or leave-one-out) error on the samples themselves.
 
     Parameters

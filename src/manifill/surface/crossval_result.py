@@ -1,6 +1,7 @@
 """The result of cross-validation (:func:`manifill.surface.crossval.cross_validate`): errors, table, advice."""
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -72,7 +73,7 @@ class CrossValidation:
     #: Label -> ``(folds, p)``: each fold's error per field.
     field_fold_errors: dict = field(default_factory=dict, repr=False)
 
-    def one_se(self, default, *, combined=False):
+    def one_se(self, default: str, *, combined: bool = False) -> list[str]:
         """Per field, the label to use: ``default`` unless another candidate's error is lower by more than one
         standard error of that candidate's fold errors (the one-standard-error rule), then that candidate.
 
@@ -91,7 +92,8 @@ class CrossValidation:
         ok = [m for m in self.methods if not self.failures[m] and np.isfinite(self.errors[m])]
         p = len(self.field_errors[self.methods[0]])
         errors = {m: [self.errors[m]] if combined else self.field_errors[m] for m in ok}
-        folds = {m: self.fold_errors[m][:, None] if combined else self.field_fold_errors.get(m) for m in ok}
+        folds: dict[str, Any] = {m: self.fold_errors[m][:, None] if combined else self.field_fold_errors.get(m)
+                                 for m in ok}
         out = []
         for j in range(1 if combined else p):
             best = min(ok, key=lambda m: (errors[m][j], self.methods.index(m)))
@@ -101,7 +103,7 @@ class CrossValidation:
             out.append(default if keep else best)
         return out * p if combined else out
 
-    def ranking(self):
+    def ranking(self) -> list[str]:
         """The labels, best first: methods that ran on every fold by error, then the others."""
         def key(m):
             e = self.errors[m]
@@ -110,13 +112,13 @@ class CrossValidation:
         return sorted(self.methods, key=key)
 
     @property
-    def best(self):
+    def best(self) -> str | None:
         """The label of the lowest error among the methods that ran on every fold (None if none did)."""
         top = self.ranking()[0]
         return None if self.failures[top] or not np.isfinite(self.errors[top]) else top
 
     @property
-    def best_options(self):
+    def best_options(self) -> dict[str, Any] | None:
         """``dict(method=..., **options)`` of :attr:`best`, to pass to :func:`manifill.reconstruct`."""
         if self.best is None:
             return None
@@ -124,11 +126,11 @@ class CrossValidation:
         return {"method": name, **opts}
 
     @property
-    def what(self):
+    def what(self) -> str:
         """``"leave-one-out"`` or ``"5-fold"``."""
         return "leave-one-out" if self.loo else f"{self.folds}-fold"
 
-    def table(self):
+    def table(self) -> str:
         """One line per candidate, best first: error, worst fold, excluded samples, seconds, failures.
 
         Returns
@@ -160,7 +162,7 @@ class CrossValidation:
         return "\n".join(lines)
 
     @property
-    def recommendation(self):
+    def recommendation(self) -> str:
         """One sentence: which method to use, by how much it wins, and what that suggests."""
         best = self.best
         if best is None:
@@ -185,7 +187,7 @@ class CrossValidation:
             text += f"; {self.hints[best]}"
         return text + "." + self._bounded_advice(best, rest) + self._field_advice(best)
 
-    def per_field(self, label=None):
+    def per_field(self, label: str | None = None) -> list[tuple[str, float]]:
         """Per field: ``(its own best candidate, the error of ``label`` (default: :attr:`best`) over that one's)``.
 
         One method serves every field of a call; this says what each field loses by it (a ratio of 1: none).
@@ -225,7 +227,7 @@ class CrossValidation:
             return text + f"; the best that stays within it is {call} ({_pct(self.errors[m])}, {ratio:.3g}x)."
         return text + "; none of the candidates stayed within it: add bounds='samples' to a candidate to keep it."
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """A plain dict (for reports and JSON): ``methods``, ``errors``, ``chosen``, ``folds``, ``table``."""
         return {"methods": self.ranking(), "errors": [float(self.errors[m]) for m in self.ranking()],
                 "chosen": self.best, "chosen_options": self.best_options, "folds": "loo" if self.loo else self.folds,

@@ -38,15 +38,18 @@ path vertices are joined). Two ways to fill it:
 """
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
 
-from .gradual import gvf
+from .gradual import GradualCheck, gvf
+from .partition import Partition
 from .slopes import sample_gradients
 from ..linalg.backends import make_linear_solver
 from ..tolerances import TOL
 from ..validate import scale_of, check_option, unit_scale
+from .surface import Surface
 
 __all__ = ["CURVE_VALUES", "CurveValues", "values_on_curves", "curve_graph", "curve_values", "vertex_normals",
            "straightness_weight"]
@@ -386,7 +389,9 @@ class CurveValues:
         return iter((self.idx, self.vals))
 
 
-def values_on_curves(surface, part, idx, vals, *, method="hermite", checks=None):
+def values_on_curves(surface: Surface, part: Partition, idx: np.ndarray, vals: np.ndarray, *,
+                     method: Literal["hermite", "monotone", "linear", "gvf"] = "hermite",
+                     checks: list[GradualCheck] | None = None) -> CurveValues:
     """Step 4 on a partition: a value at every vertex of its curves, all fields at once.
 
     Parameters
@@ -429,7 +434,8 @@ def values_on_curves(surface, part, idx, vals, *, method="hermite", checks=None)
     check_option("curve_values", method, CURVE_VALUES)
     if method == "gvf":
         cols = [curve_values(surface.V, part.curve_edges(), idx, vals[:, j], method="gvf",
-                             levels=c.levels, level=c.level) for j, c in enumerate(checks)]
+                             levels=c.levels, level=c.level)
+                for j, c in enumerate(checks)]  # type: ignore[arg-type]  # gvf is given its checks
         return CurveValues(cols[0][0], np.column_stack([cv for _, cv in cols]), method)
     b, bc = curve_values(surface.V, part.curve_edges(), idx, vals, method=method, F=surface.F,
                          curves=part.curves, ends=part.ends, normals=surface.normals)

@@ -41,7 +41,7 @@ __all__ = ["ENERGY_METHODS", "energy_fill", "as_bounds", "smoothing_value"]
 ENERGY_METHODS = {"harmonic": 1, "biharmonic": 2, "triharmonic": 3}
 
 
-def as_bounds(bounds, vals):
+def as_bounds(bounds: str | tuple | None, vals: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """``(lo, hi)`` per field, each ``(p,)``, from ``None``, ``"samples"`` or ``(lo, hi)``.
 
     Parameters

@@ -10,19 +10,28 @@ gives the :class:`~manifill.surface.reconstruction.Reconstruction`. With ``bound
 method fills without bounds and :func:`project` clips its field onto them: any method, one solve.
 """
 
+from collections.abc import Callable
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from .energy_fill import as_bounds
 from .methods.base import Run, overshoot_by_field
 from .methods.registry import configure, for_surface, method_of
+from .options import Options
+from .points import PointSamples
+from .prepared import Prepared
+from .reconstruction import Reconstruction
+from .surface import Surface
 
 __all__ = ["reconstruct_surface", "project"]
 
 
-def reconstruct_surface(surface, idx, vals, *, options=None, points=None, fields=None, prepared=None, progress=None,
-                        seconds=None, **keywords):
+def reconstruct_surface(surface: Surface, idx: np.ndarray, vals: np.ndarray, *, options: Options | None = None,
+                        points: PointSamples | None = None, fields: int | None = None, prepared: Prepared | None = None,
+                        progress: Callable[[str], object] | None = None, seconds: dict[str, float] | None = None,
+                        **keywords: Any) -> Reconstruction:
     """Steps 1-6 on a Surface and validated samples, by any method.
 
     Parameters

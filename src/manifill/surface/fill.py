@@ -9,9 +9,11 @@ The paper's Step 5 iterates from random values or from a gradually varied fit;
 ``gvf`` method of :func:`manifill.surface.reconstruct.reconstruct`).
 """
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SolveError
 from ..linalg.backends import AUTO_DIRECT_FIELDS, AUTO_DIRECT_MAX, auto_backend
@@ -19,7 +21,8 @@ from ..mesh.laplacian import WEIGHTS
 from ..validate import check_option
 from .gradual import gvf
 from .harmonic import HarmonicSolver
-from .prepared import cached
+from .prepared import Prepared, cached
+from .surface import Surface
 
 __all__ = ["INITS", "PatchFill", "fill_patches", "gvf_fill", "start_values"]
 
@@ -130,8 +133,10 @@ def start_values(init, surface, idx, vals, *, checks=None, seed=0):
     return None
 
 
-def fill_patches(surface, idx, vals, *, weights="cotan", solver="auto", on_empty="error", x0=None, bounds=None,
-                 fields=None, largest=None, prepared=None, **settings):
+def fill_patches(surface: Surface, idx: np.ndarray, vals: np.ndarray, *, weights: str = "cotan", solver: str = "auto",
+                 on_empty: str = "error", x0: ArrayLike | Callable[[], ArrayLike] | None = None,
+                 bounds: tuple[ArrayLike, ArrayLike] | None = None, fields: int | None = None,
+                 largest: int | None = None, prepared: Prepared | None = None, **settings: Any) -> PatchFill:
     """Steps 5-6: the harmonic fill with the values at ``idx`` fixed.
 
     Parameters

@@ -15,9 +15,11 @@ Distances are ``hops`` or ``length`` (:mod:`manifill.mesh.graph`); the integer g
 """
 
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 from scipy.sparse import csgraph
 
 from ..errors import OptionError, SampleError
@@ -25,6 +27,7 @@ from ..mesh.graph import offset_distances
 from ..tolerances import TOL
 from ..validate import check_magnitude, check_option
 from .lipschitz import EXTENSIONS, lipschitz_constant, lipschitz_extension
+from .surface import Surface
 
 __all__ = ["lipschitz_constant", "GradualCheck", "check_gradual", "violation_message", "gvf", "lipschitz_extension",
            "EXTENSIONS"]
@@ -61,14 +64,14 @@ class GradualCheck:
     holds: bool
     levels: np.ndarray
     level: np.ndarray
-    step: float
+    step: float | None
     lipschitz: float
     lipschitz_pair: tuple
     violations: np.ndarray
     distance: str
     level_error: float
 
-    def worst(self, k=None):
+    def worst(self, k: int | None = None) -> np.ndarray:
         """The violations, most negative slack ``d(p, q) - |i_p - i_q|`` first.
 
         Parameters
@@ -94,7 +97,7 @@ class GradualCheck:
         rows = self.violations[np.argsort(self.violations[:, 2] - self.violations[:, 3])]
         return rows if k is None else rows[:k]
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """The check as a small dict (a reconstruction's ``report['check']`` entries).
 
         ``holds``, ``lipschitz_<distance>``, ``step``, ``levels`` (count), ``violations``
@@ -134,7 +137,9 @@ def _uniform(vals, step):
     return levels, np.floor((vals - lo) / step + 0.5).astype(np.int64)
 
 
-def check_gradual(surface, idx, vals, *, levels=None, distance=None, start=None):
+def check_gradual(surface: Surface | sp.sparray | sp.spmatrix, idx: np.ndarray, vals: np.ndarray, *,
+                  levels: int | ArrayLike | None = None, distance: Literal["hops", "length"] | None = None,
+                  start: tuple | None = None) -> GradualCheck:
     """Choose value levels and check the gradual variation condition.
 
     Parameters
@@ -181,7 +186,7 @@ def check_gradual(surface, idx, vals, *, levels=None, distance=None, start=None)
     >>> check_gradual(G, np.array([0, 1]), np.array([0.0, 3.0]), levels=4).violations.tolist()
     [[1.0, 0.0, 1.0, 3.0]]
     """
-    G = getattr(surface, "G_hops", surface)
+    G: Any = getattr(surface, "G_hops", surface)
     if distance is None:
         distance = "length" if G.nnz and not np.all(sp.csr_array(G).data == 1.0) else "hops"
     check_option("distance", distance, ("hops", "length"))
@@ -209,7 +214,7 @@ def check_gradual(surface, idx, vals, *, levels=None, distance=None, start=None)
                 step *= 1.5
     else:
         if np.isscalar(levels) or np.ndim(levels) == 0:
-            m = int(levels)
+            m = int(levels)  # type: ignore[arg-type]  # a scalar: the count of levels
             if m < 1:
                 raise SampleError(f"levels={levels} asks for no levels; pass a count of at least 1")
             if m == 1 or np.ptp(vals) == 0:

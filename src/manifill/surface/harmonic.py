@@ -12,6 +12,11 @@ does: a solid's ``L`` is the tet stiffness of :mod:`manifill.mesh.tetmesh`.
 """
 
 import time
+from typing import Any, TypeVar
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError
 from ..linalg.quadratic import ON_EMPTY, QuadraticSolver
@@ -21,6 +26,8 @@ from ..mesh.tetmesh import assemble_tet_laplacian, cell_width
 from ..validate import as_indices, as_laplacian, as_mesh, as_tets, check_option, unit_scale
 
 __all__ = ["HarmonicSolver", "harmonic", "ON_EMPTY"]
+
+_Harmonic = TypeVar("_Harmonic", bound="HarmonicSolver")
 
 
 class HarmonicSolver(QuadraticSolver):
@@ -96,8 +103,9 @@ class HarmonicSolver(QuadraticSolver):
     True
     """
 
-    def __init__(self, V, F, idx, *, weights="cotan", solver="auto", on_empty="error",
-                 iteration="gauss-seidel", tol=None, maxiter=None):
+    def __init__(self, V: ArrayLike, F: ArrayLike, idx: ArrayLike, *, weights: str = "cotan", solver: str = "auto",
+                 on_empty: str = "error", iteration: str = "gauss-seidel", tol: float | None = None,
+                 maxiter: int | None = None) -> None:
         t0 = time.perf_counter()
         check_option("on_empty", on_empty, ON_EMPTY)
         check_option("weights", weights, WEIGHTS)
@@ -120,8 +128,10 @@ class HarmonicSolver(QuadraticSolver):
         self._name_weights(weights, {"validate": t1 - t0, "laplacian": t2 - t1})
 
     @classmethod
-    def from_laplacian(cls, L, idx, *, solver="auto", on_empty="error", iteration="gauss-seidel",
-                       tol=None, maxiter=None, symmetric_pattern=False, factoriser=None):
+    def from_laplacian(cls: type[_Harmonic], L: sp.sparray | sp.spmatrix, idx: ArrayLike, *, solver: str = "auto",
+                       on_empty: str = "error", iteration: str = "gauss-seidel", tol: float | None = None,
+                       maxiter: int | None = None, symmetric_pattern: bool = False,
+                       factoriser: str | None = None) -> _Harmonic:
         """Harmonic extension for a given Laplacian (a mesh's, a graph's, your own).
 
         Parameters
@@ -167,7 +177,7 @@ class HarmonicSolver(QuadraticSolver):
         return obj
 
     @property
-    def L(self):
+    def L(self) -> sp.csr_array:
         """The Laplacian (the core's ``A``)."""
         return self.A
 
@@ -178,7 +188,8 @@ class HarmonicSolver(QuadraticSolver):
         self.report = {**{k: r.pop(k) for k in order}, "weights": weights, **r,
                        "seconds": {**seconds, **r["seconds"]}}
 
-    def solve(self, vals, *, x0=None, lo=None, hi=None, **kwargs):
+    def solve(self, vals: ArrayLike, *, x0: ArrayLike | None = None, lo: ArrayLike | None = None,
+              hi: ArrayLike | None = None, **kwargs: Any) -> np.ndarray:
         """Values at every vertex, harmonic away from ``idx``.
 
         Parameters
@@ -211,8 +222,9 @@ class HarmonicSolver(QuadraticSolver):
         return super().solve(vals, x0=x0, lo=lo, hi=hi, **kwargs)
 
 
-def harmonic(V, F, idx, vals, *, weights="cotan", solver="auto", on_empty="error",
-             iteration="gauss-seidel", tol=None, maxiter=None):
+def harmonic(V: ArrayLike, F: ArrayLike, idx: ArrayLike, vals: ArrayLike, *, weights: str = "cotan",
+             solver: str = "auto", on_empty: str = "error", iteration: str = "gauss-seidel", tol: float | None = None,
+             maxiter: int | None = None) -> np.ndarray:
     """Harmonic extension of values fixed at some vertices (one-shot).
 
     Parameters

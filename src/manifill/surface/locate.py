@@ -16,10 +16,12 @@ or 1e150 work as at 1. Points farther from the surface than the limit of
 :func:`manifill.surface.samples.snap_to_vertices` are refused ("wrong units?").
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from ..errors import SampleError
@@ -72,11 +74,11 @@ class SurfacePoints:
     vertex_distance: np.ndarray | None = None
 
     @property
-    def inside(self):
+    def inside(self) -> np.ndarray:
         """(k,) bool numpy array: True for points not at a vertex (inside a face or on an edge)."""
         return self.vertex < 0
 
-    def rows(self, n, which=None):
+    def rows(self, n: int, which: np.ndarray | Sequence[int] | None = None) -> sp.csr_array:
         """The barycentric rows: ``(rows @ x)[i]`` is the field ``x`` interpolated at point ``i``.
 
         Parameters
@@ -99,13 +101,14 @@ class SurfacePoints:
         S.eliminate_zeros()
         return S
 
-    def interpolate(self, X):
+    def interpolate(self, X: ArrayLike) -> np.ndarray:
         """A field at the vertices, ``(n,)`` or ``(n, p)``, interpolated at the closest points."""
         X = np.asarray(X, dtype=np.float64)
         return np.einsum("kj,kj...->k...", self.bary, X[self.corners])
 
 
-def locate_points(V, F, points, *, max_distance=None):
+def locate_points(V: ArrayLike, F: ArrayLike | None, points: ArrayLike, *,
+                  max_distance: float | None = None) -> SurfacePoints:
     """The closest surface point of every query point: face, barycentric coordinates, distance.
 
     Parameters

@@ -19,9 +19,12 @@ checks each against its closed set; which method runs, and whether it can use wh
 was given, is the method registry's to say (:func:`manifill.surface.methods.registry.configure`).
 """
 
+from __future__ import annotations
+
 import difflib
 import os
 from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -212,14 +215,14 @@ class Options:
     checked: bool = False
 
     @classmethod
-    def build(cls, *, method=None, **keywords):
+    def build(cls, *, method: str | None = None, **keywords: Any) -> Options:
         """Options from flat keywords (those of :func:`manifill.reconstruct`), each checked against its set."""
         return cls(method=method).replace(**keywords)
 
-    def replace(self, **keywords):
+    def replace(self, **keywords: Any) -> Options:
         """A copy with these flat keywords (and ``method``/``preset``) changed, checked again."""
         top = {key: keywords.pop(key) for key in ("method", "preset") if key in keywords}
-        per = {}
+        per: dict[str, dict[str, Any]] = {}
         for key, value in keywords.items():
             if key not in OPTION_GROUP:
                 close = difflib.get_close_matches(key, OPTION_NAMES + ("method",), n=1)
@@ -234,13 +237,13 @@ class Options:
             getattr(getattr(out, g), "validate", lambda: None)()
         return out
 
-    def get(self, name):
+    def get(self, name: str) -> Any:
         """One option by its flat keyword (``o.get('solver') == o.fill.solver``)."""
         if name in ("method", "preset"):
             return getattr(self, name)
         return getattr(getattr(self, OPTION_GROUP[name]), name)
 
-    def keywords(self, *, given_only=False):
+    def keywords(self, *, given_only: bool = False) -> dict[str, Any]:
         """The flat keywords (all, or those the caller gave), as :meth:`build` takes them."""
         names = [n for n in OPTION_NAMES if not given_only or n in self.given]
         return {n: self.get(n) for n in names}

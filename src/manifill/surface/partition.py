@@ -27,6 +27,7 @@ harmonic fill handles like any other. The report counts all of these.
 """
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,6 +36,7 @@ from scipy.sparse import csgraph
 from ..mesh.graph import trace, trace_paths, voronoi_pairs
 from ..mesh.topology import pattern_components
 from ..validate import check_option, unit_scale
+from .surface import Surface
 
 __all__ = ["PARTITIONS", "Partition", "partition"]
 
@@ -75,13 +77,13 @@ class Partition:
     _edges: np.ndarray | None = field(default=None, init=False, repr=False)
     _flat: tuple | None = field(default=None, init=False, repr=False)  # (all curves concatenated, their lengths)
 
-    def curve_edges(self):
+    def curve_edges(self) -> np.ndarray:
         """Unique edges ``(i, j)``, ``i < j``, of the curve network, as an (e, 2) array."""
         if self._edges is None:
             self._edges = self._curve_edges()
         return self._edges
 
-    def steepest(self, idx, vals):
+    def steepest(self, idx: np.ndarray, vals: np.ndarray) -> list[tuple[float, tuple[int, int]] | None]:
         """Per field, the steepest curve: a lower bound of Step 1's Lipschitz constant in hops.
 
         A curve of ``h`` edges joins two samples, so their hop distance is at most
@@ -106,7 +108,7 @@ class Partition:
         pos = np.searchsorted(idx, self.ends)
         hops = (self._flat_curves()[1] - 1).astype(np.float64)
         ok = hops > 0
-        starts = []
+        starts: list[tuple[float, tuple[int, int]] | None] = []
         for j in range(vals.shape[1]):
             ratio = np.where(ok, np.abs(vals[pos[:, 0], j] - vals[pos[:, 1], j]) / np.maximum(hops, 1), 0.0)
             best = int(np.argmax(ratio))
@@ -256,7 +258,8 @@ def _cycle_paths(V, G, idx):
     return curves, np.array(ends, dtype=np.int64).reshape(-1, 2)
 
 
-def partition(surface, idx, *, method="delaunay", graph=None):
+def partition(surface: Surface, idx: np.ndarray, *, method: Literal["delaunay", "cycle", "tree"] = "delaunay",
+              graph: sp.sparray | sp.spmatrix | None = None) -> Partition:
     """Cut the surface by curves through every sample into patches.
 
     Parameters

@@ -27,6 +27,7 @@ vertices, 12 s against 9 s for ``direct``), so ``auto`` always factorises.
 import time
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..linalg.backends import direct_factoriser
 from ..linalg.energies import polyharmonic_energy
@@ -236,8 +237,9 @@ class PolyharmonicSolver(QuadraticSolver):
     #: Default iteration cap of ``amg`` (a 4th-order operator needs hundreds of iterations on large meshes).
     MAXITER = 5000
 
-    def __init__(self, V, F, idx, *, k=2, weights="cotan", mass=None, solver="auto", on_empty="error",
-                 tol=None, maxiter=None):
+    def __init__(self, V: ArrayLike, F: ArrayLike, idx: ArrayLike, *, k: int = 2, weights: str = "cotan",
+                 mass: str | None = None, solver: str = "auto", on_empty: str = "error", tol: float | None = None,
+                 maxiter: int | None = None) -> None:
         t0 = time.perf_counter()
         check_option("on_empty", on_empty, ON_EMPTY)
         check_option("solver", solver, POLYHARMONIC_SOLVERS)
@@ -258,7 +260,8 @@ class PolyharmonicSolver(QuadraticSolver):
                        "seconds": {"energy": t1 - t0, **r["seconds"]}}
 
     @classmethod
-    def settings(cls, k, free, solver="auto", tol=None, maxiter=None):
+    def settings(cls, k: int, free: int, solver: str = "auto", tol: float | None = None,
+                 maxiter: int | None = None) -> tuple[str, float, int]:
         """The backend, tolerance and iteration cap for a k-harmonic system of ``free`` unknowns.
 
         ``auto`` is AMG-preconditioned CG for ``k = 2`` above :attr:`AUTO_DIRECT_MAX`
@@ -284,7 +287,8 @@ class PolyharmonicSolver(QuadraticSolver):
         return (solver, TOL.polyharmonic_rtol if tol is None else tol,
                 cls.MAXITER if maxiter is None else maxiter)
 
-    def solve(self, vals, *, x0=None):
+    # no linear term, equality rows nor bounds here (the core takes them): a narrower solve than the core's
+    def solve(self, vals: ArrayLike, *, x0: ArrayLike | None = None) -> np.ndarray:  # type: ignore[override]
         """Values at every vertex, k-harmonic away from ``idx``.
 
         Parameters
@@ -310,8 +314,9 @@ class PolyharmonicSolver(QuadraticSolver):
         return super().solve(vals, x0=x0)
 
 
-def biharmonic(V, F, idx, vals, *, k=2, weights="cotan", mass=None, solver="auto", on_empty="error",
-               tol=None, maxiter=None):
+def biharmonic(V: ArrayLike, F: ArrayLike, idx: ArrayLike, vals: ArrayLike, *, k: int = 2, weights: str = "cotan",
+               mass: str | None = None, solver: str = "auto", on_empty: str = "error", tol: float | None = None,
+               maxiter: int | None = None) -> np.ndarray:
     """Biharmonic (or k-harmonic) interpolation of values fixed at some vertices (one-shot).
 
     Parameters

@@ -1,8 +1,13 @@
 """The result of a reconstruction on a surface: :class:`Reconstruction` (values, masks, std, files)."""
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import OptionError
 from ..results import CURVE_MASK, PATCH_LABEL, SAMPLE_MASK, TRUSTED, Result, with_std
@@ -11,6 +16,10 @@ from ..mesh.objects import to_meshio
 from ..mesh.objects import to_pyvista
 from .curve_values import vertex_normals
 from .locate import locate_points
+
+if TYPE_CHECKING:  # the types of the optional objects a result converts to
+    import meshio
+    import pyvista
 
 __all__ = ["Reconstruction"]
 
@@ -136,7 +145,18 @@ class Reconstruction(Result):
         out = out if c is None else c.full(out)
         return out[:, 0, :] if np.ndim(self.values) == 1 else out
 
-    def at(self, points, *, return_std=False, max_distance=None):
+    @overload
+    def at(self, points: ArrayLike, *, return_std: Literal[False] = ...,
+           max_distance: float | None = ...) -> np.ndarray: ...
+    @overload
+    def at(self, points: ArrayLike, *, return_std: Literal[True],
+           max_distance: float | None = ...) -> tuple[np.ndarray, np.ndarray]: ...
+    @overload
+    def at(self, points: ArrayLike, *, return_std: bool,
+           max_distance: float | None = ...) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
+
+    def at(self, points: ArrayLike, *, return_std: bool = False,
+           max_distance: float | None = None) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """The fields at points on (or near) the surface, linear on each triangle.
 
         Parameters
@@ -171,25 +191,25 @@ class Reconstruction(Result):
             raise OptionError("at() interpolates on triangles; a digital surface has none: index r.values by vertex")
         if return_std and self.std is None:
             raise OptionError("this result has no std; reconstruct with method='gp' or uncertainty=True")
-        where = self if self.cut is None else self.on_cut  # with barriers: each face's own side
+        where: Any = self if self.cut is None else self.on_cut  # with barriers: each face's own side
         loc = locate_points(where.V, where.F, points, max_distance=max_distance)
         out = [np.einsum("mc,mc...->m...", loc.bary, a[loc.corners])
                for a in ((where.values, where.std) if return_std else (where.values,))]
         return tuple(out) if return_std else out[0]
 
-    def plot(self, field=None, **kwargs):
+    def plot(self, field: str | None = None, **kwargs: Any) -> Any:
         """Draw the result with pyvista (the ``[viz]`` extra): ``self.to_pyvista().plot(scalars=field)``."""
         mesh = self.to_pyvista()
         return mesh.plot(scalars=self.field_names[0] if field is None else field, **kwargs)
 
     @property
-    def sample_mask(self):
+    def sample_mask(self) -> np.ndarray:
         """(n,) bool numpy array: True at the sample vertices."""
         sample = np.zeros(len(self.values), dtype=bool)
         sample[self.idx] = True
         return sample
 
-    def masks(self):
+    def masks(self) -> dict[str, np.ndarray]:
         """``sample_mask``; with a partition (the pipeline's methods) ``curve_mask`` (:attr:`on_curve`) and
         ``patch_label`` (:attr:`components`); ``trusted`` with ``trust=``.
 
@@ -211,7 +231,7 @@ class Reconstruction(Result):
             out[TRUSTED] = self.trusted
         return out
 
-    def point_data(self, names=None):
+    def point_data(self, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """The fields and manifill's masks, named as in every output file.
 
         Parameters
@@ -227,7 +247,7 @@ class Reconstruction(Result):
         """
         return with_std(super().point_data(names), self.std, self.field_names if names is None else names)
 
-    def to_pyvista(self, names=None):
+    def to_pyvista(self, names: Sequence[str] | None = None) -> pyvista.PolyData:
         """The surface with every field and mask as a ``pyvista.PolyData`` (needs the ``[viz]`` extra).
 
         Examples
@@ -242,21 +262,21 @@ class Reconstruction(Result):
 
         mesh = to_pyvista(self.V, self.F, self.point_data(names))
         cells = -1 if self.F is None else len(self.F)  # a point cloud: no cells of the source to carry
-        for kind, ours, count in (("point_data", mesh.point_data, len(self.V)), ("cell_data", mesh.cell_data, cells)):
+        for kind, ours, count in (("point_data", mesh.point_data, len(self.V)), ("cell_data", mesh.cell_data, cells)):  # type: ignore[arg-type]
             theirs = getattr(self.source, kind, None)
             pyvista = type(self.source).__module__.startswith("pyvista")  # meshio's cell data is per block
-            if theirs is None or (kind == "cell_data" and (not pyvista or self.source.n_cells != count)):
+            if theirs is None or (kind == "cell_data" and (not pyvista or self.source.n_cells != count)):  # type: ignore[attr-defined]
                 continue
             for key in list(theirs.keys()):
                 if key not in ours.keys() and len(theirs[key]) == count:
                     ours[key] = theirs[key]
         return mesh
 
-    def to_meshio(self, names=None):
+    def to_meshio(self, names: Sequence[str] | None = None) -> meshio.Mesh:
         """The surface with every field and mask as a ``meshio.Mesh``."""
 
         data = self.point_data(names)
         theirs = getattr(self.source, "point_data", None) or {}
         extra = {key: np.asarray(a) for key, a in dict(theirs).items()
-                 if key not in data and len(np.asarray(a)) == len(self.V)}
+                 if key not in data and len(np.asarray(a)) == len(self.V)}  # type: ignore[arg-type]
         return to_meshio(self.V, self.F, {**data, **extra})

@@ -20,6 +20,7 @@ fitted hyperparameters; they still reuse everything value-independent.
 import math
 import time
 from collections.abc import Callable
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,6 +36,7 @@ from .domain import Domain
 from .energy_fill import as_bounds
 from .engine import reconstruct_surface
 from .methods.registry import configure, method_of
+from .options import Options
 from .prepared import Prepared
 from .reconstruction import Reconstruction
 from .surface import Surface
@@ -96,7 +98,9 @@ class Reconstructor:
     True
     """
 
-    def __init__(self, V, F, idx, *, options=None, fields=None, prepare=True, progress=None, **keywords):
+    def __init__(self, V: ArrayLike, F: ArrayLike | None, idx: ArrayLike, *, options: Options | None = None,
+                 fields: int | None = None, prepare: bool = True, progress: Callable[[str], object] | None = None,
+                 **keywords: Any) -> None:
         t0 = time.perf_counter()
         o = configure(options, **keywords)
         if fields is not None and not (isinstance(fields, (int, np.integer)) and fields >= 1):
@@ -120,11 +124,11 @@ class Reconstructor:
             self._prepare(progress)
 
     @property
-    def n(self):
+    def n(self) -> int:
         """Rows of the results: the caller's vertices (before any left out, and before a barrier's cut)."""
         return self._domain.n
 
-    def mesh(self):
+    def mesh(self) -> tuple[np.ndarray, np.ndarray | None]:
         """``(V, F)`` in the caller's numbering (``F`` None for a point cloud): what the results are on."""
         return self._domain.mesh()
 
@@ -208,7 +212,7 @@ class Reconstructor:
         """
         return self._run(vals, self.options, self.options.points.duplicates, progress)
 
-    def check_values(self, vals):
+    def check_values(self, vals: ArrayLike) -> None:
         """Refuse values as :meth:`apply` would (shape, NaN, conflicting duplicates), without solving anything.
 
         Raises
@@ -218,7 +222,7 @@ class Reconstructor:
         """
         self._samples(vals, self.options.points.duplicates)
 
-    def matrix(self, *, form="auto"):
+    def matrix(self, *, form: Literal["auto", "sparse", "operator"] = "auto") -> sp.csr_array | LinearOperator:
         """The interpolation map ``W`` (n x k) with ``W @ vals == apply(vals).values``, for the linear methods.
 
         Parameters

@@ -10,16 +10,20 @@ graphs from voxel adjacency, normals from the solid, and has no triangles (``F``
 Delaunay fan (:class:`manifill.mesh.pointcloud.Cloud`), so that every method runs on it.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..mesh.graph import DISTANCES, mesh_graph
 from ..mesh.laplacian import assemble_laplacian, mass_matrix
 from ..mesh.edges import EdgeIndex
 from ..mesh.pointcloud import NEIGHBOURS, Cloud
 from ..validate import as_mesh, as_points, check_option
+from .barriers import Cut
 
 __all__ = ["Surface"]
 
@@ -106,12 +110,13 @@ class Surface:
             self.laplacian = _CachedLaplacian(self.laplacian)
 
     @property
-    def n(self):
+    def n(self) -> int:
         """Number of vertices."""
         return len(self.V)
 
     @classmethod
-    def from_mesh(cls, V, F, *, distance="length", allow_degenerate=False, check=True, cut=None):
+    def from_mesh(cls, V: ArrayLike, F: ArrayLike, *, distance: str = "length", allow_degenerate: bool = False,
+                  check: bool = True, cut: Cut | None = None) -> Surface:
         """A triangle mesh as a Surface: validated, with its edge index, both graphs and Laplacians.
 
         Parameters
@@ -154,15 +159,16 @@ class Surface:
             V, F = cut.V, cut.F
         elif check:
             V, F = as_mesh(V, F, allow_degenerate=allow_degenerate)
-        n = len(V)
+        n = len(V)  # type: ignore[arg-type]  # check=False: arrays that as_mesh returned
         index = EdgeIndex(F, n)
         G_hops = mesh_graph(V, F, distance="hops", index=index)
         G = G_hops if distance == "hops" else mesh_graph(V, F, distance="length", index=index)
-        return cls(V, G_hops, G, lambda w: assemble_laplacian(V, F, w, index), F=F, index=index,
+        return cls(V, G_hops, G, lambda w: assemble_laplacian(V, F, w, index), F=F, index=index,  # type: ignore[arg-type]
                    mass=lambda kind, weights=None: mass_matrix(V, F, mass=kind), cut=cut)
 
     @classmethod
-    def from_points(cls, P, *, neighbours=None, distance="length", check=True):
+    def from_points(cls, P: ArrayLike, *, neighbours: int | None = None, distance: str = "length",
+                    check: bool = True) -> Surface:
         """A point cloud as a Surface: graphs, Laplacians, mass and normals from its points alone.
 
         Parameters
@@ -196,5 +202,5 @@ class Surface:
         cloud = Cloud(P, NEIGHBOURS if neighbours is None else int(neighbours))
         G_hops = cloud.graph("hops")
         G = G_hops if distance == "hops" else cloud.graph("length")
-        return cls(P, G_hops, G, cloud.laplacian, normals=cloud.normals,
+        return cls(P, G_hops, G, cloud.laplacian, normals=cloud.normals,  # type: ignore[arg-type]
                    mass=lambda kind, weights=None: cloud.mass(weights), cloud=cloud)

@@ -21,6 +21,8 @@ from ..surface.barriers import Cut
 from ..surface.curve_values import vertex_normals
 from ..validate import as_mesh
 from .fill import VectorFill
+from .gp import VectorGP
+from .hodge import HodgeFit
 from .lines import LineFill
 from .options import VectorOptions
 from .result import VectorReconstruction
@@ -89,11 +91,10 @@ class VectorReconstructor:
         self._work_V = Vw
         idx_w, self._rows = self._work_samples(idx)
         kw = {"solver": o.solver, "max_distance": o.max_distance, "validated": True}
+        self.engine: Any
         if fit is not None:
-            from .hodge import HodgeFit
             self.engine = HodgeFit(Vw, Fw, idx_w, kind=fit, method=method, **kw)
         elif o.kind.gives_std:
-            from .gp import VectorGP
             self.engine = VectorGP(Vw, Fw, idx_w, symmetry=symmetry, **(o.gp or {}), **kw)
         else:
             fill = LineFill if symmetry == 2 and o.smoothing is None else VectorFill
@@ -101,9 +102,8 @@ class VectorReconstructor:
             self.engine = fill(Vw, Fw, idx_w, method=method, **extra, **kw)
         self.k = len(np.asarray(idx))
         self.idx = self._sample_vertices(idx)
-        conn = getattr(self.engine, "connection", None)
         self.V = getattr(self.engine, "V", V) if F is None else V  # a cloud's points as it keeps them
-        self.normals = vertex_normals(V, F) if F is not None else conn.frames[:, 2]
+        self.normals = vertex_normals(V, F) if F is not None else self.engine.connection.frames[:, 2]
         self.setup_seconds = time.perf_counter() - t0
 
     def _work_samples(self, idx):

@@ -17,6 +17,7 @@ from ...errors import OptionError
 from ...validate import check_option
 from ..gp import VARIANCE_OPTIONS
 from ..options import Options
+from .base import Method
 from ...linalg.gp import GPOptions, as_gp_options
 from .auto import AUTO
 from .default import DEFAULT
@@ -47,7 +48,7 @@ def names(presets=True):
     return tuple(METHODS) + (tuple(PRESETS) if presets else ())
 
 
-def method_of(name):
+def method_of(name: str | None) -> Method:
     """The :class:`~manifill.surface.methods.base.Method` of a name (a preset's name gives its method).
 
     Parameters

@@ -185,3 +185,15 @@ def test_no_message_hints_at_a_flag_its_command_does_not_take():
             if not any(flag in flags[c] for c in commands):
                 found.append(f"{rel}: {flag} (not a flag of {' or '.join(commands)})")
     assert not found, "\n".join(found)
+
+
+def test_the_fill_report_counts_negative_weights_only_for_the_harmonic_energy():
+    # a bilaplacian's positive off-diagonal entries are no obtuse triangles: an icosphere has none, and the harmonic
+    # fill says 0; the bi- and triharmonic fills said 61,410 at level 6
+    from manifill.mesh.shapes import icosphere
+
+    V, F = icosphere(3)
+    idx, vals = [0, 5, 9, 40], [0.0, 1.0, 2.0, 3.0]
+    assert manifill.reconstruct(V, F, idx, vals, method="harmonic").report["fill"]["negative_weights"] == 0
+    for method in ("biharmonic", "triharmonic"):
+        assert "negative_weights" not in manifill.reconstruct(V, F, idx, vals, method=method).report["fill"]

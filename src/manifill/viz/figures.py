@@ -164,14 +164,15 @@ def paper_figures(out, field, label, *, into=None):
         base += len(Vj)
     V, F = np.concatenate(Vs), np.concatenate(Fs)
     truth = field(2 * V)
-    idx = np.concatenate([far_points(Vs[j], 4, j) + sum(len(v) for v in Vs[:j]) for j in range(3)])
+    view = np.array([0.3, -1.0, 0.45])
+    idx = np.concatenate([_facing(Vs[j], view, 4, j) + sum(len(v) for v in Vs[:j]) for j in range(3)])
     r = reconstruct(V, F, idx, truth[idx], method="gvf-harmonic", partition="cycle", curve_values="gvf")
     on_paths = np.where(r.on_curve, r.values, np.nan)
     path = out / "fig4_4_three_components.png"
     render_panels([dict(V=V, F=F, values=on_paths, samples=idx, curves=r.curves, colour_curves=True,
                         title="(a) GVF on the paths (grey: no value yet)"),
                    dict(V=V, F=F, values=r.values, samples=idx, title="(b) harmonic fitting")],
-                  path, size=(1400, 560), view=(0.3, -1.0, 0.45))
+                  path, size=(1400, 560), view=tuple(view))
     files.append(path)
     lines.append(f"    Fig. 4.4 three components ({len(V):,} vertices): 12 samples, {len(r.curves)} paths, "
                  f"rel. RMSE {err(r.values, truth, idx):.3f} -> {path.name}")
@@ -209,3 +210,11 @@ def paper_figures(out, field, label, *, into=None):
                  f"{fill['fixed']:,} boundary voxels ({fill['iterations'][0]} multigrid iterations) -> {path.name}")
     into["files"] = [str(f) for f in files]
     return into
+
+
+def _facing(V, view, k, seed):
+    """``k`` well-spread vertices of the part of ``V`` that faces the camera (``view``: towards it), so that a
+    figure's samples and the paths between them are in sight."""
+    front = np.flatnonzero((V - V.mean(axis=0)) @ (view / np.linalg.norm(view)) > 0.25 * np.ptp(V, axis=0).max() / 2)
+    return front[far_points(V[front], k, seed)]
+

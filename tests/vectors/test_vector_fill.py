@@ -686,3 +686,17 @@ def test_bad_input_refused():
     for bad in ({"method": "harmonic", "symmetry": 0}, {"bounds": -1.0}, {"smoothing": -1.0}):
         with pytest.raises(OptionError):
             reconstruct_vectors(V, F, idx, X, **bad)
+
+
+def test_bounds_hold_per_field():
+    # each field is kept within its own samples' largest magnitude: two fields at once equal two runs
+    from manifill.mesh.shapes import icosphere
+
+    V, F = icosphere(3)
+    idx = np.random.default_rng(0).choice(len(V), 40, replace=False)
+    U = np.cross(V[idx], [0.0, 0.0, 1.0])
+    both = reconstruct_vectors(V, F, idx, np.stack([U, 10 * U], axis=2), normal="drop")
+    for j, scale in enumerate((1, 10)):
+        alone = reconstruct_vectors(V, F, idx, scale * U, normal="drop")
+        assert np.allclose(both.values[..., j], alone.values, atol=1e-12 * scale)
+        assert both.magnitude[:, j].max() <= scale * (1 + 1e-12)

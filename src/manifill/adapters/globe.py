@@ -10,11 +10,16 @@ regular grid (``grid=1.0``: every degree), with CF attributes (``latitude``/``lo
 ``[xarray]`` extra (xarray; netCDF4 or h5netcdf for the files).
 """
 
+from __future__ import annotations
+
 import datetime
 import math
+import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from ..errors import OptionError, ReadError, SampleError, WriteError
@@ -27,6 +32,9 @@ from ..memory import check_fits
 from ..surface.locate import locate_points
 from ..surface.reconstructor import Reconstructor
 
+if TYPE_CHECKING:  # the [xarray] extra: types here only
+    import pandas
+    import xarray
 
 
 def _xarray():
@@ -44,7 +52,7 @@ __all__ = ["globe_mesh", "lonlat_to_xyz", "xyz_to_lonlat", "reconstruct_globe", 
 EDGE_DEGREES = 63.43
 
 
-def lonlat_to_xyz(lon, lat):
+def lonlat_to_xyz(lon: ArrayLike, lat: ArrayLike) -> np.ndarray:
     """Unit vectors of longitudes and latitudes in degrees: ``(k, 3)``.
 
     Parameters
@@ -56,7 +64,7 @@ def lonlat_to_xyz(lon, lat):
     return np.column_stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)])
 
 
-def xyz_to_lonlat(P):
+def xyz_to_lonlat(P: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Longitudes in ``[-180, 180)`` and latitudes of points, degrees.
 
     Parameters
@@ -110,7 +118,7 @@ def _globe_level(grid, lons, lats):
     return level, None
 
 
-def globe_mesh(resolution=1.0):
+def globe_mesh(resolution: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """The unit icosphere whose edges are at most about ``resolution`` degrees (level 6 for 1 degree: 40,962 vertices).
 
     Parameters
@@ -180,8 +188,10 @@ def _dataset_stations(data, var, lon, lat, station, time):
 _KINDS = {"U": "text", "S": "text", "O": "text", "M": "date", "m": "time-interval", "c": "complex"}
 
 
-def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station", time="time", grid=1.0, mesh=None,
-                      method=None, std=False, **options):
+def reconstruct_globe(data: pandas.DataFrame | xarray.Dataset, *, var: str | None = None, lon: str = "lon",
+                      lat: str = "lat", station: str = "station", time: str = "time", grid: float | None = 1.0,
+                      mesh: tuple[ArrayLike, ArrayLike] | None = None, method: str | None = None, std: bool = False,
+                      **options: Any) -> xarray.DataArray | xarray.Dataset:
     """Stations by longitude and latitude -> a field on the sphere, as an xarray ``DataArray`` (see the module).
 
     Parameters
@@ -224,7 +234,7 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
         level, mesh = _globe_level(grid, lons, lats)
         _check_globe_fits(grid, level, values.shape[1], std)  # before a sphere finer than the search's is built
         mesh = icosphere(level) if mesh is None else mesh
-    V, F = mesh
+    V, F = mesh  # type: ignore[misc]  # made above when None
     V = np.asarray(V, dtype=np.float64)
     R = float(np.median(np.linalg.norm(V, axis=1)))
     P = lonlat_to_xyz(lons, lats) * R
@@ -272,7 +282,7 @@ def reconstruct_globe(data, *, var=None, lon="lon", lat="lat", station="station"
                                                                               "comment") if k in ds.attrs})
 
 
-def write_netcdf(field, path):
+def write_netcdf(field: xarray.DataArray | xarray.Dataset, path: str | os.PathLike[str]) -> str | os.PathLike[str]:
     """Write a :func:`reconstruct_globe` result as netCDF, its ``Conventions``, ``source`` and ``history`` global
     (as CF puts them), its coordinates without a fill value, through xarray's ``to_netcdf``, atomically.
 
@@ -381,7 +391,9 @@ def _reconstruct(V, F, tree, P, vals, method, options, snap=True):
                          **{"duplicates": "mean", **options}).apply(vals), shared
 
 
-def globe_file(stations, out, *, var=None, grid=1.0, method=None, lon="lon", lat="lat", command=None, **options):
+def globe_file(stations: str | os.PathLike[str], out: str | os.PathLike[str], *, var: str | None = None,
+               grid: float | None = 1.0, method: str | None = None, lon: str = "lon", lat: str = "lat",
+               command: str | None = None, **options: Any) -> str:
     """``manifill globe``: a CSV of stations (``lon``, ``lat``, value columns) or a netCDF of them (a ``station``
     dimension) to a netCDF on a regular grid; returns a one-line summary.
 

@@ -7,12 +7,14 @@ from ..linalg.gp import GPOptions
 from ..surface.options import CONSTRAINTS, GROUPS
 from ..surface.methods.registry import method_of, names
 from ..validate.constraints import choices
+from ..vectors.options import VectorOptions
 
 __all__ = ["MESH_HELP", "sample_args", "fill_args", "picture_args", "output_args", "pipeline_args", "uncertainty_args",
            "gradient_args", "check_workers", "max_distance_arg", "RENAMED_FLAGS", "OPTION_FLAGS", "forms_of",
            "choices_of", "default_of"]
 
-#: Every flag that sets one option of the library, and that option (``gp.`` for :class:`manifill.GPOptions`'):
+#: Every flag that sets one option of the library, and that option (``gp.`` for :class:`manifill.GPOptions`',
+#: ``vectors.`` for :class:`manifill.vectors.options.VectorOptions`'):
 #: its choices and default come from the option's constraints table, and a test tries a wrong value for each.
 OPTION_FLAGS = {
     "--duplicates": "duplicates", "--max-distance": "max_distance", "--weights": "weights", "--solver": "solver",
@@ -21,13 +23,16 @@ OPTION_FLAGS = {
     "--neighbours": "neighbours", "--barriers": "barriers", "--trust": "trust", "--untrusted": "untrusted",
     "--gp-alpha": "gp.alpha", "--gp-range": "gp.range", "--gp-sigma": "gp.sigma", "--noise": "gp.noise",
     "--variance": "gp.variance", "--variance-samples": "gp.samples",
+    "--symmetry": "vectors.symmetry", "--fit": "vectors.fit", "--normal": "vectors.normal",
 }
 
 
 def forms_of(name):
-    """The constraints of one option, by its flat keyword or ``gp.<name>``."""
+    """The constraints of one option, by its flat keyword, ``gp.<name>`` or ``vectors.<name>``."""
     if name.startswith("gp."):
         return GPOptions.CONSTRAINTS[name[3:]]
+    if name.startswith("vectors."):
+        return VectorOptions.CONSTRAINTS[name[8:]]
     return CONSTRAINTS[name]
 
 
@@ -40,6 +45,8 @@ def default_of(name):
     """The library's default of one option (its group's)."""
     if name.startswith("gp."):
         return GPOptions.__dataclass_fields__[name[3:]].default
+    if name.startswith("vectors."):
+        return VectorOptions.__dataclass_fields__[name[8:]].default
     group = next(cls for cls in GROUPS.values() if name in cls.CONSTRAINTS)
     return group.__dataclass_fields__[name].default
 

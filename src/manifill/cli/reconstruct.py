@@ -1,11 +1,13 @@
 """``manifill reconstruct MESH SAMPLES -o OUT``: the paper's pipeline (Steps 1-6); a time series with
-``-o OUT.xdmf|.pvd|.h5`` (:mod:`manifill.cli.series`)."""
+``-o OUT.xdmf|.pvd|.h5`` (:mod:`manifill.cli.series`); a tangent vector field when the samples are arrows
+(columns ``vx, vy, vz``: :mod:`manifill.cli.vectors`)."""
 
 from pathlib import Path
 
 from ..errors import OptionError
 from ..io import write_values
 from ..io.formats import find_format
+from ..io.vector_files import holds_vectors
 from ..mesh.subdivide import check_subdivide, subdivide
 from ..report import value_columns
 from ..surface.methods.registry import configure, method_of
@@ -14,6 +16,7 @@ from .common import (add_draws, barriers_arg, bounds_arg, check_draws, check_nam
                      load, pictures, print_ranges, print_time, step_bar, print_uncertainty, std_names,
                      surface_outputs, uncertainty_opts, write_surface)
 from .series import SERIES_OUTPUTS, is_series, run_series
+from .vectors import refuse_vector_flags, run_vectors, vector_args
 from .gradients import add_gradient
 from .options import (cloud_args, energy_args, fill_args, gradient_args, output_args, picture_args, pipeline_args,
                       sample_args, series_args, uncertainty_args)
@@ -38,6 +41,7 @@ def add_parser(sub):
     series_args(s)
     s.add_argument("--subdivide", type=int, default=0, metavar="K",
                    help="Loop-subdivide the result K times before writing it (a smoother surface)")
+    vector_args(s)
     picture_args(s)
     output_args(s)
     s.set_defaults(func=run)
@@ -57,6 +61,9 @@ def options_of(args):
 def run(args):
     """``manifill reconstruct MESH SAMPLES -o OUT``."""
     out = surface_outputs(args, extra=SERIES_OUTPUTS)
+    if holds_vectors(args.samples):  # arrows (vx, vy, vz): a tangent vector field (cli/vectors.py)
+        return run_vectors(args, out)
+    refuse_vector_flags(args)
     options = options_of(args)
     # the methods that take points constrain positions exactly where they are, the others use the nearest vertices
     # (auto hands the positions on: its choice uses them as the library's auto does)

@@ -67,6 +67,8 @@ class Format:
         A ``(n, p)`` field is stored as ``p`` scalar columns ``name_0 ...`` (PLY), not one ``p``-component array.
     vectors : bool
         It stores a 3-component field as one vector (VTK's files, which ParaView draws as glyphs).
+    cell_fields : bool
+        It stores named per-cell fields too (VTK's files: a vector field's face vectors).
     text : bool
         A text table (CSV): a field's name cannot hold a comma or a quote.
     plain_names : bool
@@ -106,6 +108,7 @@ class Format:
     vertex_numbering: bool = True
     columns: bool = False
     vectors: bool = False
+    cell_fields: bool = False
     text: bool = False
     plain_names: bool = False
     reserved: object = None

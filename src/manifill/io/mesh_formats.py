@@ -60,16 +60,16 @@ def _points_reader(read):
     return read_points
 
 
-def _write_vtp(path, V, kind, C, data, fmt):
-    write_polydata(path, V, None if kind == "vertex" else C, data)
+def _write_vtp(path, V, kind, C, data, fmt, cell_data=None):
+    write_polydata(path, V, None if kind == "vertex" else C, data, cell_data)
 
 
-def _write_vtu(path, V, kind, C, data, fmt):
-    write_unstructured(path, V, C, data)
+def _write_vtu(path, V, kind, C, data, fmt, cell_data=None):
+    write_unstructured(path, V, C, data, cell_data=cell_data)
 
 
-def _write_legacy(path, V, kind, C, data, fmt):
-    write_legacy(path, V, kind, C, data)
+def _write_legacy(path, V, kind, C, data, fmt, cell_data=None):
+    write_legacy(path, V, kind, C, data, cell_data)
 
 
 def _write_meshio(path, V, kind, C, data, fmt):
@@ -88,16 +88,18 @@ def vtk_reserved(name):
 
 
 #: The writers of cells (triangles, tetrahedra, a cloud's vertex cells) by format, shared by every kind that
-#: writes cells: ``write(path, V, cell kind, C, fields, format)``.
+#: writes cells: ``write(path, V, cell kind, C, fields, format)``; those of a format with ``cell_fields`` also take
+#: ``cell_data=`` (fields per cell).
 CELL_WRITERS = {"vtp": _write_vtp, "vtu": _write_vtu, "legacy": _write_legacy, "meshio": _write_meshio}
 
 # the mesh formats: read(path, format) -> (V, F or None, point_data); write as CELL_WRITERS
 for _fmt in (
     Format("VTU", "mesh", (".vtu",), _read_vtu, _write_vtu, fields=True, seen_by=("meshio", "pyvista"),
-           vectors=True),
-    Format("VTP", "mesh", (".vtp",), _read_vtp, _write_vtp, fields=True, seen_by=("pyvista",), vectors=True),
+           vectors=True, cell_fields=True),
+    Format("VTP", "mesh", (".vtp",), _read_vtp, _write_vtp, fields=True, seen_by=("pyvista",), vectors=True,
+           cell_fields=True),
     Format("legacy VTK", "mesh", (".vtk",), _read_legacy, _write_legacy, fields=True,
-           seen_by=("meshio", "pyvista"), vectors=True, plain_names=True, reserved=vtk_reserved),
+           seen_by=("meshio", "pyvista"), vectors=True, cell_fields=True, plain_names=True, reserved=vtk_reserved),
     Format("PLY", "mesh", (".ply",), _read_meshio, _write_meshio, fields=True, seen_by=("meshio",), columns=True,
            plain_names=True, reserved=ply_reserved, meshio="ply"),
     Format("OFF", "mesh", (".off",), _read_meshio, _write_meshio, meshio="off"),

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ManifillError, ReadError, WriteError
 from ..mesh.objects import mesh_arrays
@@ -124,7 +125,7 @@ def reading_once():
         _READ.reset(token)
 
 
-def read_mesh_file(path: str | os.PathLike, *, points: bool = False) -> MeshFile:
+def read_mesh_file(path: str | os.PathLike[str], *, points: bool = False) -> MeshFile:
     """Read a triangle surface and the per-vertex fields stored with it (parsed once per :func:`reading_once`).
 
     Formats: VTU, VTP, legacy VTK (POLYDATA or UNSTRUCTURED_GRID), PLY, OFF, OBJ,
@@ -215,7 +216,7 @@ def check_cells(path, V, C, what):
                         f"(0..{len(V) - 1}); the file is damaged, check it")
 
 
-def read_mesh(path: str | os.PathLike) -> MeshFile:
+def read_mesh(path: str | os.PathLike[str]) -> MeshFile:
     """Read a triangle mesh (see :func:`read_mesh_file` for the formats): a :class:`MeshFile`, which unpacks as
     ``V, F`` (``V, F = read_mesh(path)``).
 
@@ -278,7 +279,8 @@ def _field_array(name, arr, n):
     return arr.astype(np.float64)
 
 
-def write_mesh(path: str | os.PathLike, V, F, point_data: dict | None = None) -> dict[str, str]:
+def write_mesh(path: str | os.PathLike[str], V: ArrayLike, F: ArrayLike, point_data: dict | None = None, *,
+               cell_data: dict | None = None) -> dict[str, str]:
     """Write a triangle mesh with named per-vertex fields, atomically.
 
     Parameters
@@ -296,6 +298,9 @@ def write_mesh(path: str | os.PathLike, V, F, point_data: dict | None = None) ->
         VTP and VTK, and ``p`` scalar fields ``name_0 ... name_{p-1}`` in PLY.
         Boolean fields (masks) are stored as 0/1 bytes, integer fields (labels)
         as 32-bit integers, the rest as float64.
+    cell_data : dict of str to (m,) or (m, p) numpy array, optional
+        Named fields per triangle (e.g. a vector field's face vectors), in the formats with
+        ``cell_fields`` (VTU, VTP, legacy VTK).
 
     Returns
     -------
@@ -329,10 +334,10 @@ def write_mesh(path: str | os.PathLike, V, F, point_data: dict | None = None) ->
         raise
     except ManifillError as exc:
         raise WriteError(f"{Path(path).name}: not written, the mesh is malformed: {exc}") from None
-    return write_cells(path, V, F, point_data)
+    return write_cells(path, V, F, point_data, cell_data)
 
 
-def write_cells(path, V, C, point_data=None):
+def write_cells(path, V, C, point_data=None, cell_data=None):
     """Write validated triangles or tetrahedra with named per-vertex fields, atomically, by extension.
 
     Parameters
@@ -343,6 +348,8 @@ def write_cells(path, V, C, point_data=None):
     V : (n, 3) float64 numpy array
     C : (m, 3) or (m, 4) int64 numpy array
     point_data : dict of str to (n,) or (n, p) numpy array, optional
+    cell_data : dict of str to (m,) or (m, p) numpy array, optional
+        Fields per cell, for a format with ``cell_fields`` (VTU, VTP, legacy VTK).
 
     Returns
     -------
@@ -369,5 +376,12 @@ def write_cells(path, V, C, point_data=None):
                 out[f"{key}_{j}"] = np.ascontiguousarray(arr[:, j])
         else:
             out[key] = arr
-    fmt.write(path, V, kind, C, out, fmt)
+    if cell_data:
+        if not fmt.cell_fields:
+            raise WriteError(f"{Path(path).name}: {fmt.name} cannot store per-cell fields; write .vtu, .vtp or .vtk")
+        cells = stored_names(cell_data, fmt)
+        fmt.write(path, V, kind, C, out, fmt, cell_data={cells[str(k)]: _field_array(k, a, len(C))
+                                                         for k, a in cell_data.items()})
+    else:
+        fmt.write(path, V, kind, C, out, fmt)
     return names

@@ -3,7 +3,8 @@
 Surfaces go to any mesh format of :data:`manifill.io.registry.MESH_FORMATS` with their fields,
 standard deviations and masks (``.csv`` holds the fields and stds as columns, ``.npy`` the
 fields alone); voxel results to ``.vti`` (every array) or ``.npy`` (the first field); tetrahedral
-ones to :data:`manifill.io.solids.TET_FORMATS`. Registered with :mod:`manifill.results` when
+ones to :data:`manifill.io.solids.TET_FORMATS`; vector fields as :func:`manifill.io.vector_files.save_vectors`
+says. Registered with :mod:`manifill.results` when
 :mod:`manifill.io` is imported (results sit below ``io`` in the layers).
 """
 
@@ -18,6 +19,7 @@ from .formats import find_format
 from .registry import write_mesh
 from .samples import VALUE_FORMATS, write_values
 from .solids import GRID_FORMATS, TET_FORMATS, write_tets, write_vti
+from .vector_files import save_vectors
 
 __all__ = ["save_result"]
 
@@ -26,8 +28,10 @@ def save_result(result, path, names):
     """Write ``result`` to ``path`` (see the module docstring); returns the path written."""
     path = Path(path)
     ext = path.suffix.lower()
-    data = result.point_data(names)
     form = getattr(result, "form", "surface")
+    if form == "vectors":  # a tangent field: 3-vectors per vertex and per face (io/vector_files.py)
+        return save_vectors(result, path, names)
+    data = result.point_data(names)
     if form == "voxels":
         if ext not in GRID_FORMATS:
             raise OptionError(f"a voxel result is written as {' or '.join(GRID_FORMATS)}, not {ext or 'no extension'}"

@@ -11,10 +11,12 @@ import csv
 import difflib
 import os
 import zipfile
+from collections.abc import Sequence
 from functools import partial
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ReadError, SampleError, WriteError
 from ..surface.samples import field_names
@@ -24,9 +26,12 @@ from .formats import Format, FormatView, lookup, register_format
 from .gifti_write import write_gifti_data
 from .neuro import MORPH_SUFFIXES, read_gifti_data, read_label, read_mgh_data, read_morph_data
 
-__all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "MORPH", "load_npy", "load_npz", "write_values"]
+__all__ = ["SAMPLE_FORMATS", "VALUE_FORMATS", "MORPH", "VECTOR_COLUMNS", "load_npy", "load_npz", "write_values"]
 
 _VERTEX_COLUMNS = ("vertex", "idx", "index", "vertex_id", "id")
+#: The value columns of arrows (a tangent vector field's samples, :mod:`manifill.io.vector_files`); an NPZ's
+#: ``vectors`` (k, 3) is read as them.
+VECTOR_COLUMNS = ("vx", "vy", "vz")
 
 
 def _split_header(header, path):
@@ -198,8 +203,14 @@ def _numeric(arr, what, path):
 
 def _read_npz(path):
     data = load_npz(path)
+    if "vectors" in data and "vals" not in data:  # arrows: read as the value columns vx, vy, vz
+        vec = np.asarray(data["vectors"])
+        if vec.ndim != 2 or vec.shape[1] != 3:
+            raise ReadError(f"{path.name}: 'vectors' has shape {vec.shape}; pass one 3-vector per sample, (k, 3)")
+        data["vals"], data["names"] = vec, np.array(VECTOR_COLUMNS)
     if "vals" not in data or not ({"idx", "points"} & set(data)):
-        raise ReadError(f"{path.name}: needs arrays 'vals' and 'idx' (or 'points'); found {sorted(data)}")
+        raise ReadError(f"{path.name}: needs arrays 'vals' (or 'vectors') and 'idx' (or 'points'); found "
+                        f"{sorted(data)}")
     key = "idx" if "idx" in data else "points"
     vals = _numeric(data["vals"], "'vals'", path)
     loc = _numeric(data[key], f"'{key}'", path)
@@ -220,7 +231,8 @@ def _read_structured_npy(path):
     if arr.dtype.names is None:
         raise ReadError(
             f"{path.name}: a plain array has no column names; save a structured array with fields "
-            f"vertex (or x, y, z) and the values, or an .npz with 'idx' (or 'points') and 'vals'"
+            f"vertex (or x, y, z) and the values (vx, vy, vz for arrows), or an .npz with 'idx' (or 'points') and "
+            f"'vals' (or 'vectors', (k, 3))"
         )
     header = list(arr.dtype.names)
     kind, ncoord = _split_header(header, path)
@@ -240,7 +252,7 @@ def _read_structured_npy(path):
     return kind, table, header[ncoord:]
 
 
-def write_values(path, values, *, names=None):
+def write_values(path: str | os.PathLike[str], values: ArrayLike, *, names: Sequence[str] | None = None) -> None:
     """Write per-vertex values as CSV (``vertex,name...``), NPY or GIfTI (``.func.gii``), atomically.
 
     Parameters

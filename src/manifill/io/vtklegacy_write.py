@@ -20,7 +20,7 @@ __all__ = ["write_legacy"]
 _CELL_TYPES = {"vertex": (1, 1), "triangle": (3, 5), "tetra": (4, 10)}
 
 
-def write_legacy(path, V, kind, cells, point_data=None):
+def write_legacy(path, V, kind, cells, point_data=None, cell_data=None):
     """Write a triangle or tetrahedral mesh with named point fields as legacy VTK, atomically.
 
     The file is version 4.2, BINARY, ``DATASET UNSTRUCTURED_GRID`` with double
@@ -40,6 +40,8 @@ def write_legacy(path, V, kind, cells, point_data=None):
     point_data : dict of str to (n,) or (n, p) numpy array, optional
         Fields: bool arrays are stored as ``unsigned_char`` (read back as
         uint8), integers as ``int`` (int32), floats as ``double``.
+    cell_data : dict of str to (m,) or (m, p) numpy array, optional
+        Fields per cell (a ``CELL_DATA`` block), stored alike.
 
     Raises
     ------
@@ -76,6 +78,7 @@ def write_legacy(path, V, kind, cells, point_data=None):
     if n > MAX_COUNT or len(C) * (k + 1) > MAX_COUNT:
         raise WriteError(f"{name}: {n:,} points and {len(C):,} cells are more than legacy VTK holds; write .vtu")
     fields = [_field(name, key, arr, n) for key, arr in (point_data or {}).items()]
+    per_cell = [_field(name, key, arr, len(C)) for key, arr in (cell_data or {}).items()]
     with atomic_path(path) as tmp:
         try:
             with open(tmp, "wb") as fh:
@@ -87,11 +90,12 @@ def write_legacy(path, V, kind, cells, point_data=None):
                 fh.write(records.tobytes() + b"\n")
                 fh.write(f"CELL_TYPES {len(C)}\n".encode())
                 fh.write(np.full(len(C), vtk_type, dtype=">i4").tobytes() + b"\n")
-                if fields:
-                    fh.write(f"POINT_DATA {n}\nFIELD FieldData {len(fields)}\n".encode())
-                    for key, vtype, arr in fields:
+                for section, count, block in (("POINT_DATA", n, fields), ("CELL_DATA", len(C), per_cell)):
+                    if block:
+                        fh.write(f"{section} {count}\nFIELD FieldData {len(block)}\n".encode())
+                    for key, vtype, arr in block:
                         p = 1 if arr.ndim == 1 else arr.shape[1]
-                        fh.write(f"{key} {p} {n} {vtype}\n".encode())
+                        fh.write(f"{key} {p} {count} {vtype}\n".encode())
                         fh.write(arr.tobytes() + b"\n")
         except OSError as exc:
             raise WriteError(f"{name}: could not write ({exc.strerror or exc}); check the path and free space") \

@@ -108,14 +108,14 @@ def _write_array(fh, name, values, p, indent, cache=None):
     fh.write(text)
 
 
-def _point_arrays(point_data, n):
-    """Named point fields as VTK-typed (n, p) arrays, each name checked."""
+def _point_arrays(point_data, n, what="vertices"):
+    """Named point (or cell) fields as VTK-typed (n, p) arrays, each name checked."""
     arrays = {}
     for name, arr in (point_data or {}).items():
         key = _check_name(name)
         arr = np.asarray(arr)
         if arr.ndim not in (1, 2) or arr.shape[0] != n or (arr.ndim == 2 and arr.shape[1] < 1):
-            raise WriteError(f"field {name!r} has shape {arr.shape}; pass (n,) or (n, p) values for {n} vertices")
+            raise WriteError(f"field {name!r} has shape {arr.shape}; pass (n,) or (n, p) values for {n} {what}")
         out = _vtk_array(arr)
         if out is None:
             raise WriteError(f"field {name!r} holds {arr.dtype} values; pass numbers or booleans")
@@ -125,8 +125,15 @@ def _point_arrays(point_data, n):
     return arrays
 
 
-def _write_cells(path, kind, V, C, arrays, cache=None, constant=()):
-    """PolyData of triangles, or an UnstructuredGrid of triangles or tetrahedra, with point arrays.
+def _active(arrays):
+    """The attribute that makes the first 3-component float array the active vectors (ParaView's and pyvista's
+    glyphs point along it), or nothing."""
+    name = next((key for key, a in arrays.items() if a.shape[1] == 3 and a.dtype.kind == "f"), None)
+    return "" if name is None else f' Vectors="{_xml(name)}"'
+
+
+def _write_cells(path, kind, V, C, arrays, cache=None, constant=(), cell_arrays=None):
+    """PolyData of triangles, or an UnstructuredGrid of triangles or tetrahedra, with point arrays (and cell arrays).
 
     With ``cache``: the mesh's arrays and the point arrays named in ``constant`` are encoded once
     and reused from it (:func:`_write_array`)."""
@@ -141,13 +148,19 @@ def _write_cells(path, kind, V, C, arrays, cache=None, constant=()):
                 verts = m if width == 1 else 0  # a point cloud: one vertex cell per point
                 if kind == "PolyData":
                     fh.write(f'  <PolyData>\n    <Piece NumberOfPoints="{n}" NumberOfVerts="{verts}" NumberOfLines="0" '
-                             f'NumberOfStrips="0" NumberOfPolys="{m - verts}">\n      <PointData>\n')
+                             f'NumberOfStrips="0" NumberOfPolys="{m - verts}">\n      <PointData{_active(arrays)}>\n')
                 else:
                     fh.write(f'  <UnstructuredGrid>\n    <Piece NumberOfPoints="{n}" NumberOfCells="{m}">\n'
-                             f'      <PointData>\n')
+                             f'      <PointData{_active(arrays)}>\n')
                 for key, arr in arrays.items():
                     _write_array(fh, key, arr, arr.shape[1], ind, fields if key in constant else None)
-                fh.write("      </PointData>\n      <Points>\n")
+                fh.write("      </PointData>\n")
+                if cell_arrays:  # per cell: a vector field's face vectors
+                    fh.write(f"      <CellData{_active(cell_arrays)}>\n")
+                    for key, arr in cell_arrays.items():
+                        _write_array(fh, key, arr, arr.shape[1], ind)
+                    fh.write("      </CellData>\n")
+                fh.write("      <Points>\n")
                 _write_array(fh, "Points", V, 3, ind, mesh)
                 tag = ("Verts" if verts else "Polys") if kind == "PolyData" else "Cells"
                 fh.write(f"      </Points>\n      <{tag}>\n")
@@ -162,7 +175,7 @@ def _write_cells(path, kind, V, C, arrays, cache=None, constant=()):
             raise WriteError(f"{Path(path).name}: could not write ({exc}); check the path") from None
 
 
-def write_polydata(path, V, F, point_data=None):
+def write_polydata(path, V, F, point_data=None, cell_data=None):
     """Write a triangle mesh with named point fields as VTK PolyData (``.vtp``), atomically.
 
     The arrays are inline binary, zlib-compressed, with a UInt64 header: points as
@@ -180,6 +193,8 @@ def write_polydata(path, V, F, point_data=None):
     point_data : dict of str to (n,) or (n, p) numpy array, optional
         Named fields; a ``(n, p)`` field is one ``p``-component array. Names are any
         non-empty text without control characters.
+    cell_data : dict of str to (m,) or (m, p) numpy array, optional
+        Named fields per triangle, as ``point_data``.
 
     Raises
     ------
@@ -195,10 +210,11 @@ def write_polydata(path, V, F, point_data=None):
             V, F = as_mesh(V, F, allow_degenerate=True, allow_unreferenced=True, allow_unwelded=True)
     except ManifillError as exc:
         raise WriteError(f"{Path(path).name}: not written, the mesh is malformed: {exc}") from None
-    _write_cells(path, "PolyData", V, F, _point_arrays(point_data, len(V)))
+    _write_cells(path, "PolyData", V, F, _point_arrays(point_data, len(V)),
+                 cell_arrays=_point_arrays(cell_data, len(F), "cells"))
 
 
-def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=()):
+def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=(), cell_data=None):
     """Write triangles or tetrahedra with named point fields as a VTK UnstructuredGrid (``.vtu``), atomically.
 
     Encoded as :func:`write_polydata`; VTK, ParaView, pyvista and meshio read it,
@@ -219,6 +235,8 @@ def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=()):
         in ``constant``, are encoded once. The caller guarantees they do not change.
     constant : collection of str, optional
         Fields the same in every file written with ``cache``.
+    cell_data : dict of str to (m,) or (m, p) numpy array, optional
+        Named fields per cell.
 
     Raises
     ------
@@ -230,7 +248,8 @@ def write_unstructured(path, V, C, point_data=None, *, cache=None, constant=()):
     if V.ndim != 2 or V.shape[1] != 3 or C.ndim != 2 or C.shape[1] not in (1, 3, 4):
         raise WriteError(f"{Path(path).name}: points {V.shape} and cells {C.shape}; pass (n, 3) points and "
                          f"(m, 3) triangles or (m, 4) tetrahedra")
-    _write_cells(path, "UnstructuredGrid", V, C, _point_arrays(point_data, len(V)), cache, constant)
+    _write_cells(path, "UnstructuredGrid", V, C, _point_arrays(point_data, len(V)), cache, constant,
+                 _point_arrays(cell_data, len(C), "cells"))
 
 
 def write_imagedata(path, fields, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):

@@ -177,20 +177,21 @@ class VectorReconstructor:
         """Scale magnitudes above the bound down to it (in place); what ``report['bounds']`` says."""
         if self.bounds is False:
             return None
-        if self.bounds is True:  # the samples' tangent parts: what the field meets there
+        if self.bounds is True:  # each field's samples' tangent parts: what the field meets there
             e = getattr(self.engine, "lines", self.engine)  # a line fill keeps its samples in its power fill
-            top = float(np.max(np.abs(e.places.coordinates(e.connection, X, "drop"))))
+            top = np.max(np.abs(e.places.coordinates(e.connection, X, "drop")), axis=0)  # () or (p,)
         else:
-            top = float(self.bounds)
+            top = np.full(X.shape[2:], float(self.bounds))
         counts = []
         for Y in (vertex, face):
-            mag = np.linalg.norm(Y, axis=1, keepdims=True)
+            mag = np.linalg.norm(Y, axis=1, keepdims=True)  # (m, 1[, p])
             over = mag > top
             with np.errstate(invalid="ignore", divide="ignore"):
                 scale = np.where(over, top / mag, 1.0)
             Y *= scale
             counts.append(int(over.sum()))
-        return {"magnitude": top, "vertices_scaled": counts[0], "faces_scaled": counts[1]}
+        return {"magnitude": float(top) if np.ndim(top) == 0 else top.tolist(), "vertices_scaled": counts[0],
+                "faces_scaled": counts[1]}
 
     def _singularities(self, Z):
         conn = getattr(self.engine, "connection", None)

@@ -1,15 +1,34 @@
 """The result of a vector reconstruction: a tangent vector per vertex and per face, magnitudes, singularities."""
 
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..mesh.objects import to_meshio, to_pyvista
 from ..results import SAMPLE_MASK, Result, field_names, sample_mask
+
+if TYPE_CHECKING:  # the types of the optional objects a result converts to
+    import meshio
+    import pyvista
 
 __all__ = ["VectorReconstruction"]
 
 
 class VectorReconstruction(Result):
     """Tangent vector fields on a surface (what :func:`manifill.reconstruct_vectors` returns).
+
+    Parameters
+    ----------
+    V, F, values, faces, idx, symmetry, singularities, std, report, names, normals
+        The attributes below.
+    draws : callable, optional
+        ``draws(count, seed)``: whole fields from the posterior (``method='gp'``), for :meth:`sample`.
 
     Attributes
     ----------
@@ -43,8 +62,13 @@ class VectorReconstruction(Result):
         ``<name>_std``).
     """
 
-    def __init__(self, V, F, values, faces, *, idx, symmetry=1, singularities=None, std=None, report=None,
-                 names=None, draws=None, normals=None):
+    #: What :meth:`save` writes (``manifill.io.vector_files``): 3-vectors per vertex and per face.
+    form = "vectors"
+
+    def __init__(self, V: ArrayLike, F: ArrayLike | None, values: np.ndarray, faces: np.ndarray, *, idx: ArrayLike,
+                 symmetry: int = 1, singularities: list[dict] | None = None, std: np.ndarray | None = None,
+                 report: dict | None = None, names: Sequence[str] | None = None,
+                 draws: Callable[[int, int], np.ndarray] | None = None, normals: np.ndarray | None = None) -> None:
         self.V, self.F, self.normals = V, F, normals
         self.values, self.faces = values, faces
         self.magnitude = np.linalg.norm(values, axis=1)
@@ -56,7 +80,7 @@ class VectorReconstruction(Result):
         self.names = names
         self._draw = draws
 
-    def fields(self):
+    def fields(self) -> np.ndarray:
         """``values`` with a last axis per field: ``(n, 3, p)``."""
         return self.values if self.values.ndim == 3 else self.values[..., None]
 
@@ -74,11 +98,11 @@ class VectorReconstruction(Result):
     def _domain(self):
         return f"{len(self.V):,} vertices, {len(self.idx)} samples"
 
-    def masks(self):
+    def masks(self) -> dict[str, np.ndarray]:
         """The samples' mask (1 at sample vertices)."""
-        return {SAMPLE_MASK: sample_mask(len(self.V), self.idx[self.idx >= 0])}
+        return {SAMPLE_MASK: sample_mask(len(self.V), self.idx[self.idx >= 0])}  # type: ignore[arg-type]
 
-    def point_data(self, names=None):
+    def point_data(self, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """Per field ``<name>`` (3-vectors), ``<name>_magnitude`` (and ``<name>_std``), then the masks."""
         X = self.fields()
         names = self.field_names if names is None else field_names(names, X.shape[-1])
@@ -91,13 +115,37 @@ class VectorReconstruction(Result):
                 out[f"{name}_std"] = S[:, j]
         return {**out, **self.masks()}
 
-    def cell_data(self, names=None):
-        """Per field ``<name>``: the face vectors ``(m, 3)``."""
+    def cell_data(self, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+        """Per field ``<name>``: the face vectors ``(m, 3)`` (none on a point cloud)."""
+        if self.F is None:
+            return {}
         Y = self.faces if self.faces.ndim == 3 else self.faces[..., None]
         names = self.field_names if names is None else field_names(names, Y.shape[-1])
         return {name: Y[..., j] for j, name in enumerate(names)}
 
-    def to_pyvista(self, names=None):
+    def save(self, path: str | os.PathLike[str], names: Sequence[str] | None = None) -> Path:
+        """Write the field(s) to ``path``, as the format holds vectors (:mod:`manifill.io.vector_files`).
+
+        ``.vtu``, ``.vtp``, ``.vtk``: each field ``<name>`` one 3-component point array (the first the active vectors,
+        which ParaView's Glyph filter follows), ``<name>_magnitude`` (and ``<name>_std``), the sample mask, and the
+        face vectors as a 3-component cell array ``<name>``; ``.ply``: ``<name>_x``, ``_y``, ``_z`` per vertex (no
+        face vectors); ``.csv``: columns ``vertex, <name>_x, <name>_y, <name>_z, <name>_magnitude``; ``.npy``: the
+        ``(n, 3)`` array of one field.
+
+        Parameters
+        ----------
+        path : str or path-like
+        names : list of str, optional
+            One name per field (default :attr:`field_names`).
+
+        Returns
+        -------
+        pathlib.Path
+            The file written (atomically: nothing is left half-written).
+        """
+        return super().save(path, names)
+
+    def to_pyvista(self, names: Sequence[str] | None = None) -> pyvista.PolyData:
         """The surface with the vectors as point data (the first field active, for glyphs) and the face vectors
         as cell data (needs the ``[viz]`` extra)."""
         mesh = to_pyvista(self.V, self.F, self.point_data(names))
@@ -107,7 +155,7 @@ class VectorReconstruction(Result):
         mesh.set_active_vectors(first)
         return mesh
 
-    def to_meshio(self, names=None):
+    def to_meshio(self, names: Sequence[str] | None = None) -> meshio.Mesh:
         """The surface with the vectors as point data and the face vectors as cell data, as a ``meshio.Mesh``."""
         mesh = to_meshio(self.V, self.F, self.point_data(names))
         mesh.cell_data.update({name: [Y] for name, Y in self.cell_data(names).items()})

@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from ..errors import WriteError
+from .arrows import add_arrows
 from .layout import fill_frame, position_text, tick_labels
 from .viewer import MASK_STYLES, field_kind, field_range
 
@@ -189,6 +190,8 @@ def _add_surface(pl, pv, panel, clim, cmap):
         if lift is not None:  # lifted off the surface: whole spheres, also on a silhouette
             at = at + 0.006 * lift[np.asarray(samples)]
         pl.add_points(at, color="red", point_size=size, render_points_as_spheres=True)
+    if panel.get("arrows"):  # a vector field's arrows over its magnitude
+        add_arrows(pl, pv, panel["arrows"])
     if panel.get("title"):
         pl.add_text(panel["title"], font_size=11, position="upper_edge")
 
@@ -206,7 +209,8 @@ def render_panels(panels, path, *, size=(1200, 500), cmap="viridis", same_scale=
         ``title``, ``name`` (of the field, for the colour bar), ``kind`` (``'value'``,
         ``'std'``, ``'mask'`` or ``'category'``, e.g. patch labels, in flat colours with a legend of
         names: the colour map, :func:`manifill.viz.viewer.field_kind`),
-        ``cmap`` and ``clim`` (this panel's own map and range).
+        ``cmap`` and ``clim`` (this panel's own map and range), ``bar_title`` (the colour bar's title, by default
+        ``name``), ``arrows`` (groups of arrows, :func:`manifill.viz.arrows.add_arrows`).
     path : str or Path
         The PNG to write.
     size : (int, int), optional

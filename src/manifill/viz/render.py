@@ -7,20 +7,24 @@ on a machine with no display. :func:`render` takes several named fields and draw
 the one chosen by name; :func:`render_fields` draws several side by side, each on its own
 colour bar and map (:func:`manifill.viz.viewer.field_kind`): a field on viridis, its standard
 deviation ``<field>_std`` on a sequential map from 0, a mask such as ``trusted`` in two colours.
+:func:`render_vectors` draws a tangent vector field: its magnitude as colour, arrows on top.
 """
 
 import dataclasses
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from ..errors import OptionError
 from ..mesh.objects import mesh_arrays
 from ..validate import as_vertices, is_mesh_object
 from ..results import TRUSTED
+from .arrows import LENGTH, MAX_ARROWS, thin_points, vector_field
 from .panels import STD_CMAP, render_panels, render_slices
 from .panels import nice_range  # noqa: F401 (re-exported from its old home)
 from .viewer import choose_field, field_kind, named_fields
 
-__all__ = ["Look", "render", "render_fields", "render_panels", "render_slices", "STD_CMAP"]
+__all__ = ["Look", "render", "render_fields", "render_vectors", "render_panels", "render_slices", "STD_CMAP"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -176,3 +180,63 @@ def render_fields(V, F, fields, path, *, show=None, samples=None, curves=None, l
                            kind=field_kind(key, fields[key]), title=f"{title}: {key}" if title else key))
     size = look.size or ((900, 700) if len(panels) == 1 else (600 * len(panels), 550))  # one panel: as render's
     render_panels(panels, path, size=size, cmap=look.cmap, same_scale=False, view=look.view, viewup=look.viewup)
+
+
+#: The spacing of the arrows of :func:`render_vectors` on the picture, in pixels (when no ``count`` is given).
+ARROW_PIXELS = 26
+
+
+def render_vectors(result, path, *, field=None, count=None, samples=True, look=None, **look_options):
+    """Render a tangent vector field into a PNG: its magnitude as colour, arrows on top.
+
+    The arrows stand at most ``count`` places spread evenly over the side of the surface the camera sees
+    (:func:`manifill.viz.arrows.thin_points`), each as long as its magnitude over the largest times their spacing;
+    lines (``symmetry=2``) are drawn without heads, crosses (4) as two crossing lines. The samples' arrows are red.
+
+    Parameters
+    ----------
+    result : manifill.vectors.result.VectorReconstruction
+    path : str or Path
+        The PNG to write.
+    field : str, optional
+        The field drawn (its name; default the first); ``<name>_std`` (``method='gp'``) colours its std instead
+        of its magnitude.
+    count : int, optional
+        The most arrows shown; by default about one per :data:`ARROW_PIXELS` pixels of the picture, at most
+        :data:`manifill.viz.arrows.MAX_ARROWS`.
+    samples : bool, optional
+        Draw the samples' arrows (red), where they are at vertices.
+    look : Look, optional
+        Title, size (default 900 by 700 pixels), colour map and camera, as :func:`render`.
+    **look_options
+        :class:`Look`'s fields one by one.
+
+    Raises
+    ------
+    OptionError
+        ``field`` names no field, or an option is none of these.
+    WriteError, ImportError
+        As :func:`render`.
+    """
+    look = _look(look, look_options, "render_vectors()")
+    names = result.field_names
+    name, shown = vector_field(names, field, result.std is not None)
+    vec = result.fields()[..., names.index(name)]
+    values = result.point_data()[shown]
+    V, N = np.asarray(result.V, dtype=np.float64), np.asarray(result.normals, dtype=np.float64)
+    top = float(np.nanmax(np.linalg.norm(vec, axis=1), initial=0.0))
+    size = look.size or (900, 700)
+    count = min(MAX_ARROWS, int((min(size) / ARROW_PIXELS) ** 2 / 2)) if count is None else int(count)
+    toward = np.asarray(look.view if look.view is not None else (1.0, 1.0, 1.0), dtype=np.float64)
+    facing = N @ (toward / np.linalg.norm(toward)) > 0.3  # the side the camera sees, not edge-on
+    seen = np.flatnonzero(facing)
+    at, spacing = thin_points(V[seen], count)
+    at = seen[at]
+    given = np.unique(result.idx[result.idx >= 0]) if samples else np.zeros(0, dtype=np.int64)
+    at, given = np.setdiff1d(at, given), given[facing[given]]
+    groups = [dict(points=V[i], vectors=vec[i], normals=N[i], length=LENGTH * spacing, scale=top,
+                   symmetry=result.symmetry, color=c) for i, c in ((at, "black"), (given, "red")) if len(i)]
+    bar = f"{name} std (per component)" if shown.endswith("_std") else f"{name} magnitude"
+    render_panels([dict(V=V, F=result.F, values=values, name=shown, kind=field_kind(shown, values), title=look.title,
+                        bar_title=bar, arrows=groups)],
+                  path, size=size, cmap=look.cmap, view=look.view, viewup=look.viewup)

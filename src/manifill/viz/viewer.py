@@ -22,9 +22,10 @@ from ..errors import OptionError, ReadError, WriteError
 from ..io.files import atomic_path
 from ..results import BOUNDARY_MASK, CURVE_MASK, SAMPLE_MASK, TRUSTED
 from ..validate import as_mesh, as_vertices
+from .arrows import LENGTH, MAX_ARROWS, arrow_segments, thin_points, vector_field
 
-__all__ = ["write_html", "embedded_arrays", "named_fields", "choose_field", "field_kind", "field_range",
-           "MASK_STYLES", "STD_SUFFIX"]
+__all__ = ["write_html", "write_vectors_html", "embedded_arrays", "named_fields", "choose_field", "field_kind",
+           "field_range", "MASK_STYLES", "STD_SUFFIX"]
 
 _TEMPLATE = Path(__file__).with_name("viewer.html")
 
@@ -164,7 +165,7 @@ def _script_json(obj):
 
 
 def write_html(path, V, F, values=None, *, samples=None, curves=None, title="manifill", name="value", names=None,
-               field=None):
+               field=None, arrows=None):
     """Write the interactive viewer for a surface and its fields.
 
     Parameters
@@ -191,6 +192,9 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
         The names of the columns of a (n, p) ``values``.
     field : str, optional
         The name of the field shown first (default: the first).
+    arrows : (s, 2, 3) array_like of float, optional
+        Line segments drawn over the surface, black, with a box to hide them: a vector field's arrows
+        (:func:`manifill.viz.arrows.arrow_segments`).
 
     Raises
     ------
@@ -237,6 +241,9 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
         seg = np.concatenate([np.column_stack([c[:-1], c[1:]]) for c in map(np.asarray, curves) if len(c) > 1]
                              or [seg])
     samples = np.asarray([] if samples is None else samples, dtype=np.int64)
+    arrows = np.zeros((0, 2, 3)) if arrows is None else np.asarray(arrows, dtype=np.float64)
+    if arrows.ndim != 3 or arrows.shape[1:] != (2, 3) or not np.isfinite(arrows).all():
+        raise WriteError(f"arrows have shape {arrows.shape}; pass (s, 2, 3) finite segment ends")
     table = []
     for key, x in fields.items():
         kind = field_kind(key, x)
@@ -247,12 +254,44 @@ def write_html(path, V, F, values=None, *, samples=None, curves=None, title="man
     data = {
         "positions": _b64(V, np.float32), "faces": _b64(F, np.uint32), "samples": _b64(samples, np.uint32),
         "segments": _b64(seg, np.uint32), "fields": table, "field": chosen, "title": str(title),
-        "counts": [n, len(F), int(samples.size), len(seg)], "spacing": spacing,
+        "counts": [n, len(F), int(samples.size), len(seg)], "spacing": spacing, "arrows": _b64(arrows, np.float32),
     }
     subs = {"__TITLE__": html.escape(str(title)), "__DATA__": _script_json(data)}
     page = re.sub("__TITLE__|__DATA__", lambda mo: subs[mo.group()], _TEMPLATE.read_text(encoding="utf-8"))
     with atomic_path(path) as tmp:
         Path(tmp).write_text(page, encoding="utf-8")
+
+
+def write_vectors_html(path, result, *, field=None, count=MAX_ARROWS, title="manifill"):
+    """Write the interactive viewer of a tangent vector field: its magnitude (and std) coloured, its arrows drawn
+    as lines at up to ``count`` places spread evenly (:func:`manifill.viz.arrows.thin_points`), the samples.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.html`` file.
+    result : manifill.vectors.result.VectorReconstruction
+    field : str, optional
+        The field whose arrows are drawn and whose magnitude (``<name>_std``: std) shows first (default the first).
+    count : int, optional
+        The most arrows drawn.
+    title : str, optional
+
+    Raises
+    ------
+    OptionError, WriteError
+        As :func:`write_html`; ``field`` names no vector field.
+    """
+    names = result.field_names
+    name, shown = vector_field(names, field, result.std is not None)
+    vec = result.fields()[..., names.index(name)]
+    data = result.point_data()
+    fields = {k: a for k, a in data.items() if k.endswith(("_magnitude", STD_SUFFIX))}
+    V, N = np.asarray(result.V, dtype=np.float64), np.asarray(result.normals, dtype=np.float64)
+    at, spacing = thin_points(V, count)
+    length = LENGTH * spacing
+    seg = arrow_segments(V[at] + 0.02 * length * N[at], vec[at], N[at], length, result.symmetry)
+    write_html(path, V, result.F, fields, field=shown, samples=result.idx[result.idx >= 0], arrows=seg, title=title)
 
 
 def embedded_arrays(path):
@@ -266,8 +305,8 @@ def embedded_arrays(path):
     -------
     dict
         ``positions`` (n, 3) float32, ``faces`` (m, 3) uint32, ``samples`` (k,) uint32,
-        ``segments`` (s, 2) uint32, ``fields`` (dict of str to (n,) float32 arrays, in
-        the page's order), ``kinds`` (dict of str to the colouring, :func:`field_kind`),
+        ``segments`` (s, 2) uint32, ``arrows`` (a, 2, 3) float32 (segment ends), ``fields`` (dict of str to (n,)
+        float32 arrays, in the page's order), ``kinds`` (dict of str to the colouring, :func:`field_kind`),
         ``field`` (the name of the field shown first) and ``values`` (that field's (n,) array).
 
     Raises
@@ -280,11 +319,13 @@ def embedded_arrays(path):
         text = path.read_text(encoding="utf-8")
         start = text.index("const DATA = ", text.index("<script>")) + len("const DATA = ")
         data = json.loads(text[start:text.index(";\n", start)])
-        kinds = {"positions": ("<f4", 3), "faces": ("<u4", 3), "samples": ("<u4", 1), "segments": ("<u4", 2)}
+        kinds = {"positions": ("<f4", 3), "faces": ("<u4", 3), "samples": ("<u4", 1), "segments": ("<u4", 2),
+                 "arrows": ("<f4", 6)}
         out = {}
         for key, (dt, width) in kinds.items():
-            a = np.frombuffer(base64.b64decode(data[key], validate=True), dtype=dt)
+            a = np.frombuffer(base64.b64decode(data.get(key, ""), validate=True), dtype=dt)
             out[key] = a.reshape(-1, width) if width > 1 else a
+        out["arrows"] = out["arrows"].reshape(-1, 2, 3)
         if "fields" in data:
             table = [(f["name"], f["values"]) for f in data["fields"]]
             first = table[data["field"]][0]

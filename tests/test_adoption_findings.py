@@ -170,7 +170,7 @@ def test_no_message_hints_at_a_flag_its_command_does_not_take():
     """Every 'CLI: --x' in a message is a flag of the command that reaches that code (the globe's of globe, the
     batch's of batch, the solid's of volume, the rest of reconstruct's or volume's)."""
     from manifill.cli.main import build_parser
-    from manifill.console import main as _  # noqa: F401 (registers the batch command)
+    import manifill.cluster  # noqa: F401 (registers the batch command)
 
     parser = build_parser()
     flags = {name: {s for a in sub._actions for s in a.option_strings}

@@ -38,7 +38,10 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..errors import MeshError, OptionError, SampleError
+from ..linalg.cholesky import cholmod_available
+from ..linalg.factorise import factorise
 from ..linalg.gaussian import VARIANCES, Conditional, factoriser_for, observation_matrix
+from ..linalg.quadratic import QuadraticSolver
 from ..linalg.gpfit import fit_range
 from ..linalg.hermitian import factorise_hermitian
 from ..linalg.spde import MaternShape, kappa_from_range, range_from_kappa, sigma_from_tau, tau_from_sigma
@@ -74,6 +77,43 @@ def _covariance(Lc, mass, Hc, kappa):
 
 def _s2_of_sigma(sigma, kappa):
     return 1.0 / tau_from_sigma(sigma, kappa, _ALPHA, _DIM) ** 2
+
+
+#: Without CHOLMOD, the exact variance is read from solves with unit columns (the real form's Cholesky factor from
+#: SuperLU drops exact zeros of its pattern, which the selected inversion needs) up to this many unknowns.
+EXACT_BY_SOLVES = 8_000
+
+
+def _variance_by_solves(Q, idx, rows, eta, block=512):
+    """The conditional variance of every unknown from solves of the conditioned system with unit columns: exact data
+    (``x[idx]`` fixed, ``rows x = 0``) through :class:`~manifill.linalg.quadratic.QuadraticSolver` (``-x`` minimises
+    ``x' Q x / 2 - e' x``: a column of the conditional covariance), noisy data through the factor of
+    ``Q + H' E^-1 H``."""
+    t0 = time.perf_counter()
+    n = Q.shape[0]
+    var = np.zeros(n)
+    if eta is None:
+        qs = QuadraticSolver(Q, idx, solver="direct", Aeq=rows, on_empty="solve", symmetric_pattern=True)
+        free = np.setdiff1d(np.arange(n), idx)
+        zeros = np.zeros(len(idx))
+        beq = None if rows is None else np.zeros(rows.shape[0])
+        for start in range(0, len(free), block):
+            cols = free[start:start + block]
+            E = np.zeros((n, len(cols)))
+            E[cols, np.arange(len(cols))] = -1.0
+            X = qs.solve(np.repeat(zeros[:, None], len(cols), axis=1), linear=E,
+                         beq=None if beq is None else np.repeat(beq[:, None], len(cols), axis=1))
+            var[cols] = X[cols, np.arange(len(cols))]
+    else:
+        H = observation_matrix(n, idx, rows)
+        eta = np.broadcast_to(np.asarray(eta, dtype=np.float64), (H.shape[0],))
+        _, f = factorise(sp.csr_array(Q + H.T @ sp.diags_array(1.0 / eta) @ H), spd=True)
+        for start in range(0, n, block):
+            cols = np.arange(start, min(n, start + block))
+            E = np.zeros((n, len(cols)))
+            E[cols, np.arange(len(cols))] = 1.0
+            var[cols] = np.asarray(f.solve(E))[cols, np.arange(len(cols))]
+    return np.maximum(var, 0.0), {"how": "exact", "seconds": time.perf_counter() - t0}
 
 
 def _check(range_, sigma, noise, symmetry, solver, variance):
@@ -351,10 +391,16 @@ class VectorGP:
             if len(self._conds) >= 4:
                 self._conds.clear()
             unknowns = self.shape.n - (len(self.idx) if eta is None else 0)
-            cond = Conditional(self.shape.precision(kappa), self.shape.root(kappa), self.idx, rows=self.rows,
+            Q = self.shape.precision(kappa)
+            by_solves = not cholmod_available() and (self.variance == "exact" or (
+                self.variance == "auto" and unknowns <= EXACT_BY_SOLVES))
+            cond = Conditional(Q, self.shape.root(kappa), self.idx, rows=self.rows,
                                eta=eta, solver="direct" if self.solver == "auto" else self.solver, definite=True,
-                               factoriser=factoriser_for(True, self.variance, unknowns))
-            var, info = cond.variance(self.variance)
+                               factoriser=None if by_solves else factoriser_for(True, self.variance, unknowns))
+            if by_solves:
+                var, info = _variance_by_solves(Q, self.idx, self.rows, eta)
+            else:
+                var, info = cond.variance(self.variance)
             vx, vy = var[0::2], var[1::2]
             info = {k: v for k, v in info.items() if k != "se"}
             info["anisotropy"] = float(np.abs(vx - vy).max() / max(float(var.max()), 1e-300))

@@ -128,6 +128,14 @@ def test_a_name_csv_cannot_hold_is_refused_before_the_work(case, capsys):
     assert code == 0  # the same name is fine where the format can hold it
 
 
+def _wait_for(path, limit=60.0):
+    """Until the child has made ``path`` (it does so as the slow call begins)."""
+    end = time.monotonic() + limit
+    while not path.exists():
+        assert time.monotonic() < end, f"the child never reached the call ({path.name})"
+        time.sleep(0.02)
+
+
 SLOW_CALL = """
 import sys
 import numpy as np
@@ -138,6 +146,7 @@ fill = rc.reconstruct
 
 
 def slow(*args, **kwargs):  # one long compiled call, as a large factorisation or a gp's dense solve makes
+    open("started", "w").close()  # the test signals once the call has begun (not after a guessed delay)
     np.linalg.svd(np.random.default_rng(0).normal(size=(4000, 4000)))  # 15 s here
     return fill(*args, **kwargs)
 
@@ -156,7 +165,8 @@ def test_a_signal_is_honoured_within_seconds_even_inside_a_long_compiled_call(tm
     proc = subprocess.Popen([sys.executable, "-c", SLOW_CALL, "reconstruct", "m.vtu", "s.csv", "-o", "o.vtu"],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    time.sleep(1.5)  # inside the call by now (the import and the read take well under a second)
+    _wait_for(tmp_path / "started")  # inside the call (on a loaded machine the import alone took over 1.5 s)
+    (tmp_path / "started").unlink()
     t = time.monotonic()
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
@@ -176,6 +186,7 @@ from manifill.cli import main
 
 
 def slow(*args, **kwargs):
+    open("started", "w").close()  # the test signals once the call has begun (not after a guessed delay)
     try:
         time.sleep(30)  # interruptible: the main thread's own handler runs at once
     finally:
@@ -193,7 +204,8 @@ def test_the_watchdog_leaves_a_long_clean_up_to_finish(tmp_path):
     (tmp_path / "s.csv").write_text("vertex,t\n" + "".join(f"{i},{float(V[i, 2])!r}\n" for i in range(0, 162, 9)))
     proc = subprocess.Popen([sys.executable, "-c", SLOW_CLEANUP, "reconstruct", "m.vtu", "s.csv", "-o", "o.vtu"],
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.5)
+    _wait_for(tmp_path / "started")
+    (tmp_path / "started").unlink()
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 143 and err == "manifill: terminated; no output was left half-written\n", err

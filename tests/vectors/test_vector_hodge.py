@@ -196,10 +196,11 @@ def test_the_prepared_fit_and_the_one_shot_agree_and_fields_stack():
         assert np.allclose(both.potential[:, j], one.potential, atol=1e-12)
 
 
-@pytest.mark.parametrize("level, k", [(4, 100), (5, 300)])
-def test_on_the_sphere_a_field_of_its_kind_is_fitted_better_than_by_the_vector_fill(level, k):
+@pytest.mark.parametrize("level, k, kinds", [(4, 100, KINDS), (5, 300, ("divergence-free",))])
+def test_on_the_sphere_a_field_of_its_kind_is_fitted_better_than_by_the_vector_fill(level, k, kinds):
     """Relative RMS error of the vertex vectors at most 0.7 of the unconstrained biharmonic vector fill's, for a
-    divergence-free and a curl-free field (measured: 0.2-0.3 at k = 100, 0.3-0.5 at k = 300)."""
+    divergence-free and a curl-free field (measured: 0.2-0.3 at k = 100, 0.3-0.5 at k = 300; at k = 300 one kind:
+    the benchmark runs both, and a fit takes 6 s with SuperLU)."""
     V, F = icosphere(level)
     fields = sphere_fields(V)
     idx = RNG(level).choice(len(V), k, replace=False)
@@ -208,6 +209,8 @@ def test_on_the_sphere_a_field_of_its_kind_is_fitted_better_than_by_the_vector_f
     Z, _ = VectorFill(V, F, idx, method="biharmonic").solve(U[idx])
     plain = conn.to_space(Z)
     for j, kind in enumerate(KINDS):
+        if kind not in kinds:
+            continue
         out = HodgeFit(V, F, idx, kind=kind).solve(U[idx, :, j])
         size = rms(U[:, :, j])
         ours, theirs = rms(out.vertex_vectors - U[:, :, j]) / size, rms(plain[:, :, j] - U[:, :, j]) / size

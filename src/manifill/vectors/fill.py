@@ -58,15 +58,20 @@ class VectorFill:
         Positions farther than this from the surface are refused (the scalar methods' ``max_distance``).
     validated : bool, optional
         ``V``, ``F`` are arrays already checked (a mesh cut along barriers, whose copies coincide).
+    like : VectorFill, optional
+        A fill of the same mesh and samples (another symmetry or energy): its connection, mass and sample places
+        are taken as they are instead of built again.
     """
 
     def __init__(self, V, F, idx, *, method="biharmonic", symmetry=1, smoothing=None, solver="auto",
-                 max_distance=None, validated=False):
+                 max_distance=None, validated=False, like=None):
         if method not in ORDERS:
             raise OptionError(f"method={method!r} is not a vector method; pass one of {', '.join(ORDERS)}")
         if symmetry not in SYMMETRIES:
             raise OptionError(f"symmetry={symmetry!r}: pass 1 (arrows), 2 (lines) or 4 (crosses)")
-        if F is None:  # a point cloud: its own frames and fans
+        if like is not None:
+            V, F, self.cloud, conn, self.mass = like.V, like.F, like.cloud, like.connection, like.mass
+        elif F is None:  # a point cloud: its own frames and fans
             self.cloud = Cloud(np.asarray(V, dtype=np.float64))
             V, conn, self.mass = self.cloud.P, cloud_connection(self.cloud), self.cloud.M
         else:
@@ -76,7 +81,7 @@ class VectorFill:
         self.V, self.F, self.method, self.symmetry, self.smoothing = V, F, method, symmetry, smoothing
         self.connection = conn
         n = conn.n
-        self.places = p = SamplePlaces(V, F, idx, max_distance)
+        self.places = p = like.places if like is not None else SamplePlaces(V, F, idx, max_distance)
         self.vertices, self.vertex_samples, self.face_samples = p.vertices, p.vertex_samples, p.face_samples
         self.faces, self.bary, self.points, self.k = p.faces, p.bary, p.points, p.k
         # every path of the solve (complex, real with rows, smoothed, iterative) refuses an unsampled piece alike
@@ -90,7 +95,7 @@ class VectorFill:
         self.rows = real_rows(conn.face_rows(self.faces, self.bary, symmetry)) if len(self.faces) else None
         self.complex = None
         if smoothing is None and self.rows is None and solver in ("auto", "direct"):
-            self.complex = _HermitianDirichlet(Ac, self.vertices, conn.edges, self._used())
+            self.complex = _HermitianDirichlet(Ac, self.vertices, self._used())
             self.A = self.solver = None
             self.solver_name = solver
             return
@@ -152,12 +157,11 @@ class _HermitianDirichlet:
     """The complex energy's Dirichlet problem: the sample vertices fixed, the rest solved with one Hermitian
     factorisation (:func:`manifill.linalg.hermitian.factorise_hermitian`); vertices in no face are NaN."""
 
-    def __init__(self, A, fixed, edges, used):
+    def __init__(self, A, fixed, used):  # every piece has a sample: VectorFill checked
         n = A.shape[0]
         free_mask = used.copy()
         free_mask[fixed] = False
         self.n, self.fixed, self.free = n, fixed, np.flatnonzero(free_mask)
-        _check_pieces(edges, used, fixed)
         A = sp.csr_array(A)
         rows = A[self.free]
         self.A_fb = sp.csr_array(rows[:, fixed])

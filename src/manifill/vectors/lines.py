@@ -106,7 +106,8 @@ class LineFill:
             self.why = f"{n:,} vertices x {k:,} samples is beyond the orientation's budget ({ORIENT_MAX:,})"
         self.arrows = None
         if self.why is None:
-            self.arrows = VectorFill(self.V, F, idx, symmetry=1, **{**keywords, "validated": True})
+            self.arrows = VectorFill(self.V, F, idx, symmetry=1, like=self.lines,
+                                     **{k: v for k, v in keywords.items() if k in ("method", "solver")})
             self.K1, self.K2 = _schur(self.arrows), _schur(self.lines)
 
     def solve(self, vectors, *, normal="refuse"):
